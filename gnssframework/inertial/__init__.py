@@ -19,6 +19,8 @@ trajectory
     Smooth reference trajectories and their exact increments.
 error_model
     15-state error-state model (transition matrix, process noise, closed-loop correction).
+calibration
+    IMU scale factors and misalignments as 18 more error states (coupling, compensation).
 """
 
 from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2, WGS84, EarthModel

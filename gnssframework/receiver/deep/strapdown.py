@@ -31,6 +31,11 @@ class StrapdownIns:
         IMU interval.
     grade
         `inertial.imu.ImuGrade` whose noise the error model propagates.
+    calibration
+        Carry the IMU's scale factors and misalignments as 18 more error states
+        (`inertial.calibration`): the transition and noise handed out are then ``(runs, 33,
+        33)``, a correction ``(runs, 33)`` also updates the estimated ``M`` of each triad, and
+        the increments are compensated with ``(I + M_hat)^-1``.
 
     Notes
     -----
@@ -43,13 +48,18 @@ class StrapdownIns:
     interval, without its per-interval Python overhead.
     Closed-loop corrections go through `inertial.error_model.correct_state`, which keeps
     the bias estimates that `compensate_increments` removes from later increments.
+    With ``calibration`` the calibration states' coupling ``Gamma`` of each interval is
+    accumulated beside the transition (``S <- Phi_k S + Gamma_k``, the top-right block of the
+    augmented product) and the augmented matrices are assembled when the filter takes them.
     """
 
-    def __init__(self, state0, dtheta_rad, dv_mps, imu_interval_s: float, grade) -> None:
+    def __init__(self, state0, dtheta_rad, dv_mps, imu_interval_s: float, grade, calibration: bool = False) -> None:
+        from ...inertial import calibration as cal
         from ...inertial import error_model, mechanisation
 
         self.mech = mechanisation
         self.em = error_model
+        self.cal = cal if calibration else None
         self.state = state0
         self.dtheta = np.asarray(dtheta_rad, float)
         self.dv = np.asarray(dv_mps, float)
@@ -62,18 +72,27 @@ class StrapdownIns:
         self.gyro_bias = np.zeros((runs, 3))  # bias estimates removed from the increments
         self.accel_bias = np.zeros((runs, 3))
         self.f_b = np.zeros((runs, 3))
+        self.w_b = np.zeros((runs, 3))
+        self.gyro_cal = np.zeros((runs, 3, 3))  # estimated M of each triad (calibration only)
+        self.accel_cal = np.zeros((runs, 3, 3))
         self._reset_model()
+
+    @property
+    def error_states(self) -> int:
+        """Size of the error state this INS propagates and corrects: 15, or 33 with calibration."""
+        return 15 if self.cal is None else 15 + self.cal.N_CALIBRATION_STATES
 
     def _reset_model(self) -> None:
         self.Phi = np.broadcast_to(np.eye(15), (self.runs, 15, 15)).copy()
         self.Qd = np.zeros((self.runs, 15, 15))
-        self._pending: list[tuple] = []  # (state, specific force) of each interval not yet in Phi, Qd
+        self.S = None if self.cal is None else np.zeros((self.runs, 15, self.cal.N_CALIBRATION_STATES))
+        self._pending: list[tuple] = []  # (state, specific force, rate) of each interval not yet in Phi, Qd
 
     def _accumulate(self) -> None:
         """Transition and noise of the pending IMU intervals (one batched evaluation), multiplied up in order."""
         if not self._pending:
             return
-        states, forces = zip(*self._pending)
+        states, forces, rates = zip(*self._pending)
         self._pending = []
         stacked = self.mech.NavState(
             np.stack([x.q_b_e for x in states]),
@@ -83,9 +102,15 @@ class StrapdownIns:
         Phi_all, Qd_all = self.em.error_state_transition(
             stacked, np.stack(forces), self.dt, self.grade, method="second-order"
         )
-        for Phi, Qd in zip(Phi_all, Qd_all):
+        Gamma_all = None
+        if self.cal is not None:
+            G = self.cal.calibration_coupling(stacked.q_b_e, np.stack(rates), np.stack(forces))
+            Gamma_all = self.cal.calibration_transition(Phi_all, G, self.dt)
+        for k, (Phi, Qd) in enumerate(zip(Phi_all, Qd_all)):
             self.Phi = Phi @ self.Phi
             self.Qd = Phi @ self.Qd @ np.swapaxes(Phi, -1, -2) + Qd
+            if Gamma_all is not None:
+                self.S = Phi @ self.S + Gamma_all[k]
 
     def advance(self, t_s: float) -> None:
         """Mechanise to ``t_s`` and accumulate the error model's transition and noise."""
@@ -98,8 +123,12 @@ class StrapdownIns:
             dth, dv = self.em.compensate_increments(
                 self.dtheta[self.k], self.dv[self.k], self.gyro_bias, self.accel_bias, self.dt
             )
+            if self.cal is not None:
+                dth = self.cal.compensate_calibration(dth, self.gyro_cal)
+                dv = self.cal.compensate_calibration(dv, self.accel_cal)
+                self.w_b = dth / self.dt
             self.f_b = dv / self.dt
-            self._pending.append((self.state, self.f_b))
+            self._pending.append((self.state, self.f_b, self.w_b))
             # Increments (from simulate_imu) and state are checked once; a non-finite INS output
             # is caught, named, at the harness's next re-aiding (deep._check_finite).
             self.state = self.mech.strapdown_step_trusted(self.state, dth, dv, self.dt, *self.prev)
@@ -112,12 +141,31 @@ class StrapdownIns:
         return (s.position_ecef_m, s.velocity_ecef_mps, self.mech.kinematic_acceleration_ecef(s, self.f_b))
 
     def take_error_model(self):
+        """Transition and process noise since the last take, ``(runs, n, n)`` for ``n`` =
+        `error_states` (with calibration: ``[[Phi, S], [0, I]]`` and ``Qd`` padded with zeros)."""
         self._accumulate()
-        out = (self.Phi, self.Qd)
+        Phi, Qd, S = self.Phi, self.Qd, self.S
         self._reset_model()
-        return out
+        if S is None:
+            return Phi, Qd
+        n = self.error_states
+        Phi_a = np.broadcast_to(np.eye(n), (self.runs, n, n)).copy()
+        Phi_a[:, :15, :15], Phi_a[:, :15, 15:] = Phi, S
+        Qd_a = np.zeros((self.runs, n, n))
+        Qd_a[:, :15, :15] = Qd
+        return Phi_a, Qd_a
 
     def correct(self, dx: np.ndarray) -> None:
+        """Closed-loop correction with an error estimate ``(runs, error_states)``."""
+        dx = np.asarray(dx, float)
+        if dx.shape[-1] != self.error_states:
+            raise ConfigError(
+                "StrapdownIns", f"a correction needs {self.error_states} error states, got {dx.shape[-1]}"
+            )
         self.state, self.gyro_bias, self.accel_bias = self.em.correct_state(
-            self.state, dx, self.gyro_bias, self.accel_bias
+            self.state, dx[..., :15], self.gyro_bias, self.accel_bias
         )
+        if self.cal is not None:
+            m = dx[..., 15:]
+            self.gyro_cal = self.gyro_cal + m[..., self.cal.GYRO_CALIBRATION].reshape(-1, 3, 3)
+            self.accel_cal = self.accel_cal + m[..., self.cal.ACCEL_CALIBRATION].reshape(-1, 3, 3)
