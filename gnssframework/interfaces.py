@@ -488,8 +488,14 @@ class ErrorStateNavFilter(NavFilter):
     - ``aiding()`` says how the harness aids the NCOs around it (`IntegrationAiding`).
     """
 
-    #: Size of the error state (the layout of `gnssframework.inertial.error_model`).
-    error_states: ClassVar[int] = 15
+    @property
+    def error_states(self) -> int:
+        """Size of the INS error state the harness's strapdown propagates and corrects: 15 (the
+        layout of `gnssframework.inertial.error_model`), or 33 with the IMU's scale factors and
+        misalignments after them (`gnssframework.inertial.calibration`). ``step``'s
+        ``error_state`` has this size; states the filter keeps beyond it (range biases) are
+        its own."""
+        return 15
 
     @property
     @abc.abstractmethod

@@ -35,6 +35,13 @@ section 8.2). Their initial covariance is the budget's, independent of the INS e
 carries them through its least-squares gain $K$ (``fix_range_gain``, `loose.fix_range_gain`):
 the INS-minus-fix measurement sees $-K_{0:3} M b$ on its position rows.
 
+With the IMU's scale factors and misalignments (``gyro_scale_factor_ppm``,
+``accel_scale_factor_ppm``, ``gyro_misalignment_mrad``, ``accel_misalignment_mrad``, their
+prior 1-sigma) the INS error state is 33: the 15, then the 18 elements of each triad's
+residual ``M`` (`gnssframework.inertial.calibration`), random constants the closed loop
+corrects like the biases. The harness's strapdown then hands out 33-state transitions
+(``StrapdownIns(calibration=True)``) and takes 33-state corrections (`error_states`).
+
 Another ``estimator`` from the registry runs the update (``kf`` by default; ``ekf``,
 ``ukf``, ``ckf`` give the same numbers on this linear model, which the tests check).
 """
@@ -46,6 +53,8 @@ from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat
+
+from gnssframework.inertial.calibration import N_CALIBRATION_STATES, calibration_prior_std
 
 from gnssframework.errors import ConfigError, InvalidInputError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
@@ -88,8 +97,39 @@ class _InsEkfOwnParams(PluginParams):
     )
 
 
-class InsEkfParams(RangeBiasStates, _InsEkfOwnParams):
-    """ins-ekf's parameters: its own, then the range-error budget (`plugins.range_bias`)."""
+class ImuCalibrationStates(PluginParams):
+    """The IMU's scale factors and misalignments as states: their prior 1-sigma (all zero: none)."""
+
+    gyro_scale_factor_ppm: NonNegativeFloat = Field(
+        0.0,
+        description="prior 1-sigma of each gyro scale-factor error (ppm). With any of the four IMU calibration "
+        "values > 0 the filter carries both triads' 18 scale-factor and misalignment states "
+        "(gnssframework.inertial.calibration; 33 INS error states); a value of 0 holds its states at zero",
+    )
+    accel_scale_factor_ppm: NonNegativeFloat = Field(
+        0.0, description="prior 1-sigma of each accelerometer scale-factor error (ppm)"
+    )
+    gyro_misalignment_mrad: NonNegativeFloat = Field(
+        0.0, description="prior 1-sigma of each of the gyro triad's six cross-couplings (mrad)"
+    )
+    accel_misalignment_mrad: NonNegativeFloat = Field(
+        0.0, description="prior 1-sigma of each of the accelerometer triad's six cross-couplings (mrad)"
+    )
+
+    def calibration_std(self) -> np.ndarray | None:
+        """Prior 1-sigma of the 18 calibration states, or None when the filter carries none."""
+        values = (
+            self.gyro_scale_factor_ppm,
+            self.accel_scale_factor_ppm,
+            self.gyro_misalignment_mrad,
+            self.accel_misalignment_mrad,
+        )
+        return calibration_prior_std(*values) if any(v > 0 for v in values) else None
+
+
+class InsEkfParams(RangeBiasStates, ImuCalibrationStates, _InsEkfOwnParams):
+    """ins-ekf's parameters: its own, the IMU calibration states, then the range-error budget
+    (`plugins.range_bias`)."""
 
 
 class InsEkf(ErrorStateNavFilter):
@@ -121,13 +161,19 @@ class InsEkf(ErrorStateNavFilter):
     params: InsEkfParams  # self.params, as validated
     requires = ("residual_m", "residual_cov")
     provides = ("error_state", "cov")
-    error_states = N_ERROR_STATES
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         p = self.params
         self.engine = p.estimator.create()
         self.filter_step = FilterStep(self.engine, name=f"{self.name} ({self.engine.name})")
+        self._calibration_std = p.calibration_std()
+        self._n_ins = N_ERROR_STATES + (0 if self._calibration_std is None else N_CALIBRATION_STATES)
+
+    @property
+    def error_states(self) -> int:
+        """15 INS error states, or 33 with the IMU calibration states."""
+        return self._n_ins
 
     def check_context(self, context: RunContext) -> None:
         """The carrier-phase prefilter runs at the harness's T: check it there, naming its
@@ -149,8 +195,12 @@ class InsEkf(ErrorStateNavFilter):
         if P0.shape[-2:] != (N_ERROR_STATES, N_ERROR_STATES):
             raise InvalidInputError(self.name, "initial_cov", f"must be (..., 15, 15), got {P0.shape}")
         runs = batch_shape[0] if batch_shape else 1
-        P0 = np.broadcast_to(P0, (runs, N_ERROR_STATES, N_ERROR_STATES)).copy()
-        self.state = self.filter_step.start(Gaussian(np.zeros((runs, N_ERROR_STATES)), P0))
+        n = self._n_ins
+        P = np.zeros((runs, n, n))
+        P[:, :N_ERROR_STATES, :N_ERROR_STATES] = P0
+        if self._calibration_std is not None:  # a zero prior holds its state at zero (a floor keeps P factorable)
+            P[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(np.maximum(self._calibration_std, 1e-12) ** 2)
+        self.state = self.filter_step.start(Gaussian(np.zeros((runs, n)), P))
         self._bias: RangeBiasBudget | None = None  # appended at the first differenced update
         self._interval_s = 0.0  # Gauss-Markov bias states: the interval of its updates (the run context's)
         if self.params.range_bias_time_s is not None and RangeBiasBudget.wanted(self.params):
@@ -159,8 +209,19 @@ class InsEkf(ErrorStateNavFilter):
             )
 
     def assumptions(self, context) -> dict[str, tuple[object, str]]:
-        """The range-error budget, when it is on."""
-        return budget_assumptions(self.params)
+        """The range-error budget and the IMU calibration states' priors, when they are on."""
+        out: dict[str, tuple[object, str]] = dict(budget_assumptions(self.params))
+        if self._calibration_std is not None:
+            p = self.params
+            out["IMU calibration states: gyro, accelerometer scale factor"] = (
+                f"{p.gyro_scale_factor_ppm:g}, {p.accel_scale_factor_ppm:g}",
+                "ppm",
+            )
+            out["IMU calibration states: gyro, accelerometer misalignment"] = (
+                f"{p.gyro_misalignment_mrad:g}, {p.accel_misalignment_mrad:g}",
+                "mrad",
+            )
+        return out
 
     def fixed_channel_set(self) -> bool:
         """True with a range-error budget: its SISRE states are appended for the first
@@ -185,17 +246,25 @@ class InsEkf(ErrorStateNavFilter):
 
     def _augmented(self, transition: np.ndarray, process_noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The INS error model's ``Phi`` and ``Qd`` with the bias states' transition appended."""
-        runs = self.state.mean.shape[0]
-        F = np.broadcast_to(np.asarray(transition, float), (runs, N_ERROR_STATES, N_ERROR_STATES))
-        Q = np.broadcast_to(np.asarray(process_noise, float), (runs, N_ERROR_STATES, N_ERROR_STATES))
+        runs, m = self.state.mean.shape[0], self._n_ins
+        F, Q = np.asarray(transition, float), np.asarray(process_noise, float)
+        for name, value in (("transition", F), ("process_noise", Q)):
+            if value.shape[-2:] != (m, m):
+                which = "with the IMU calibration states" if m > N_ERROR_STATES else "the INS error states"
+                raise InvalidInputError(
+                    self.name,
+                    name,
+                    f"must be (runs, {m}, {m}) ({which}), got {value.shape} at step {self.filter_step.step_index}",
+                )
+        F, Q = np.broadcast_to(F, (runs, m, m)), np.broadcast_to(Q, (runs, m, m))
         if self._bias is None:
             return F, Q
-        n = N_ERROR_STATES + self._bias.size
+        n = m + self._bias.size
         psi, q = self._bias.transition(self._interval_s)
         Fa, Qa = np.zeros((runs, n, n)), np.zeros((runs, n, n))
-        Fa[:, :N_ERROR_STATES, :N_ERROR_STATES], Qa[:, :N_ERROR_STATES, :N_ERROR_STATES] = F, Q
-        Fa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(psi)
-        Qa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(q)
+        Fa[:, :m, :m], Qa[:, :m, :m] = F, Q
+        Fa[:, m:, m:] = np.diag(psi)
+        Qa[:, m:, m:] = np.diag(q)
         return Fa, Qa
 
     def propagate(self, transition: np.ndarray, process_noise: np.ndarray) -> None:
@@ -211,12 +280,12 @@ class InsEkf(ErrorStateNavFilter):
         variances, independent of the INS error (`plugins.range_bias.RangeBiasBudget`)."""
         budget = RangeBiasBudget.of(self.params, channels)
         x, P = self.state.mean, self.state.cov
-        runs, nb = x.shape[0], budget.size
-        n = N_ERROR_STATES + nb
+        runs, nb, m = x.shape[0], budget.size, self._n_ins
+        n = m + nb
         xa = np.concatenate([x, np.zeros((runs, nb))], axis=-1)
         Pa = np.zeros((runs, n, n))
-        Pa[:, :N_ERROR_STATES, :N_ERROR_STATES] = P
-        Pa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(budget.std_m() ** 2)
+        Pa[:, :m, :m] = P
+        Pa[:, m:, m:] = np.diag(budget.std_m() ** 2)
         self._bias = budget
         self.state = self.filter_step.start(Gaussian(xa, Pa), first_step=self.filter_step.step_index)
 
@@ -249,7 +318,7 @@ class InsEkf(ErrorStateNavFilter):
                 np.asarray(inputs["residual_cov"], float),
                 los,
                 reference_channel(inputs["cn0_dbhz"]),
-                n_states=N_ERROR_STATES,
+                n_states=self._n_ins,
                 range_rows=self._range_rows(inputs, los),
             )
         if "position_velocity_error" in inputs:
@@ -269,17 +338,15 @@ class InsEkf(ErrorStateNavFilter):
             H[..., 0:3, POSITION] = np.eye(3)
             H[..., 3:6, VELOCITY] = np.eye(3)
             if rows is not None:  # INS minus fix: the fix carries K M b, so z carries -K M b
-                H[..., 0:3, N_ERROR_STATES:] = -np.asarray(inputs["fix_range_gain"], float) @ rows
+                H[..., 0:3, self._n_ins :] = -np.asarray(inputs["fix_range_gain"], float) @ rows
             return z, H, R
         raise InvalidInputError(
             self.name, "inputs", "give residual_m (differenced update) or position_velocity_error (loose update)"
         )
 
     def _transition(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        return self._augmented(
-            inputs.get("transition", np.eye(N_ERROR_STATES)),
-            inputs.get("process_noise", np.zeros((N_ERROR_STATES, N_ERROR_STATES))),
-        )
+        m = self._n_ins
+        return self._augmented(inputs.get("transition", np.eye(m)), inputs.get("process_noise", np.zeros((m, m))))
 
     def innovation(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """$z - H \\Phi \\hat x$ and $H (\\Phi P \\Phi^T + Q_d) H^T + R$ of ``inputs`` (the range-bias
@@ -294,10 +361,10 @@ class InsEkf(ErrorStateNavFilter):
         z, H, R = self._measurement(inputs)  # first: it may append the bias states
         F, Q = self._transition(inputs)
         post = self.filter_step(self.state, z, LinearModel(F=F, H=H, Q=Q, R=R)).posterior
-        dx = post.mean[:, :N_ERROR_STATES]
-        # Closed loop: the caller removes dx from the INS; the INS error estimate restarts at
-        # zero, the range-bias estimate (not an INS error) is kept.
+        dx = post.mean[:, : self._n_ins]
+        # Closed loop: the caller removes dx from the INS (and its IMU compensation); the INS
+        # error estimate restarts at zero, the range-bias estimate (not an INS error) is kept.
         mean = post.mean.copy()
-        mean[:, :N_ERROR_STATES] = 0.0
+        mean[:, : self._n_ins] = 0.0
         self.state = Gaussian(mean, post.cov)
         return {"error_state": dx, "cov": post.cov[:, :N_ERROR_STATES, :N_ERROR_STATES]}

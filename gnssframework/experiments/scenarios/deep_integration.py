@@ -216,7 +216,8 @@ class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams, LockDetectorPa
         description="the IMU error levels the INS filter assumes (its initial bias covariance and its "
         "process noise), when they are not the truth's: a receiver knows its IMU from a datasheet, not "
         "exactly. Default null: the filter is handed imu itself. Scale factors and misalignments are not "
-        "states of the 15-state error filter: set in imu they are unmodelled whatever this says",
+        "states of the 15-state error filter: set in imu they are unmodelled whatever this says, unless "
+        "ins-ekf is given their priors (its gyro_scale_factor_ppm ... accel_misalignment_mrad: 33 states)",
     )
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose, tight: window of the scalar loops' carrier-phase rate")

@@ -16,6 +16,7 @@ import numpy as np
 
 from ... import random_streams as draw
 from ...estimation.consistency import nees
+from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
@@ -102,6 +103,14 @@ def _filter_imu(p):
     return p.imu if p.filter_imu is None else p.filter_imu
 
 
+def _calibrates(ekf) -> bool:
+    """Whether the INS filter carries the IMU calibration states (33 INS error states)."""
+    n = ekf.error_states
+    if n not in (15, 33):
+        raise ConfigError(f"nav_filter {ekf.name!r}", f"the strapdown INS carries 15 or 33 error states, not {n}")
+    return n == 33
+
+
 def _initial_cov(p) -> np.ndarray:
     """Initial covariance of the 15-state error: the scenario's initial errors and the bias levels
     (random constant plus Gauss-Markov deviation) of the IMU the filter assumes (`_filter_imu`)."""
@@ -118,8 +127,9 @@ def _initial_cov(p) -> np.ndarray:
     return np.diag(np.maximum(std, 1e-12) ** 2)
 
 
-def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
-    """Measured increments, the INS started from the truth plus drawn initial errors, and P0."""
+def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator, calibration: bool = False):
+    """Measured increments, the INS started from the truth plus drawn initial errors, and P0
+    (``calibration``: the INS carries the IMU's scale-factor and misalignment states too)."""
     from ...inertial.error_model import apply_navigation_error
     from ...inertial.imu import simulate_imu
 
@@ -131,7 +141,7 @@ def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
     err0 = draw.standard_normal(rng, (runs, 9), 0) * np.sqrt(np.diag(P0)[:9])
     truth0 = flight.model.evaluate(np.array([0.0])).nav_state(0)
     state0 = apply_navigation_error(truth0.broadcast((runs,)), err0)
-    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, _filter_imu(p)), P0
+    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, _filter_imu(p), calibration), P0
 
 
 def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) -> dict[str, np.ndarray]:
@@ -171,7 +181,7 @@ def run_deep(
     ``loose`` and ``tight`` do; their NCOs go on being aided by the INS."""
     p = scenario.params
     ekf = plugins["nav_filter"]
-    ins, P0 = _setup_ins(scenario, flight, runs, rng)
+    ins, P0 = _setup_ins(scenario, flight, runs, rng, _calibrates(ekf))
     ekf.reset((runs,), RunContext(initial_cov=P0, epoch_interval_s=p.update_interval_s))
     aiding = ekf.aiding()  # an ErrorStateNavFilter's contract
     c_std = np.asarray(p.initial_clock_std_m, float)
@@ -319,7 +329,7 @@ def _run_scalar(
     trailing = p.loose_rate_window == "trailing"
     reach_s = (1 if trailing else window // 2 + 1) * T  # how far past the update its measurements reach
     ekf = plugins["nav_filter"]
-    ins, P0 = _setup_ins(scenario, flight, runs, rng)
+    ins, P0 = _setup_ins(scenario, flight, runs, rng, _calibrates(ekf))
     ekf.reset((runs,), RunContext(initial_cov=P0, epoch_interval_s=p.update_interval_s))
     n_upd = int(round(p.update_interval_s / T))
     per_run = lock is not None and not isinstance(lock, ChannelOutage)  # a lock test's verdicts
@@ -354,7 +364,8 @@ def _run_scalar(
                 if refused is not None:  # no fix in those runs: the INS's own position, nil gain
                     fp, fv = np.where(refused[:, None], pos0, fp), np.where(refused[:, None], vel0, fv)
                     fcov = np.where(refused[:, None, None], fcov + REJECTED_FIX_VAR * np.eye(6), fcov)
-                gain, los_fix = fix_range_gain(chans[2], chans[4], fp)  # a range-bias budget maps through it
+                _, _, fix_var_r, _, fix_sat_pos, _, _ = chans  # the channels the fix used
+                gain, los_fix = fix_range_gain(fix_var_r, fix_sat_pos, fp)  # a range-bias budget maps through it
                 loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability, range_gain=gain, los=los_fix)
         else:
             ekf.propagate(*ins.take_error_model())

@@ -185,6 +185,10 @@ def gate_innovation(ekf: ErrorStateNavFilter, inputs: dict[str, np.ndarray]) -> 
     own = ekf.innovation(inputs)
     if own is not None:
         return own
+    if ekf.error_states != 15:
+        raise ConfigError(
+            f"nav_filter {ekf.name!r}", f"{ekf.error_states} INS error states and no innovation of its own to gate on"
+        )
     Phi, Qd = inputs["transition"], inputs["process_noise"]
     P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
     if "residual_m" in inputs:
@@ -285,7 +289,7 @@ def tight_update(
 
     Returns
     -------
-    The applied error estimate ``(runs, 15)`` (subtracted from the INS).
+    The applied error estimate ``(runs, ekf.error_states)`` (subtracted from the INS).
     """
     Phi, Qd = ins.take_error_model()
     p, v, _ = ins.kinematics()
