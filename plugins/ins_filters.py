@@ -54,10 +54,9 @@ from collections.abc import Mapping
 import numpy as np
 from pydantic import Field, NonNegativeFloat
 
-from gnssframework.inertial.calibration import N_CALIBRATION_STATES, calibration_prior_std
-
 from gnssframework.errors import ConfigError, InvalidInputError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
+from gnssframework.inertial.calibration import N_CALIBRATION_STATES, calibration_prior_std
 from gnssframework.interfaces import ErrorStateNavFilter, IntegrationAiding, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
@@ -133,20 +132,22 @@ class InsEkfParams(RangeBiasStates, ImuCalibrationStates, _InsEkfOwnParams):
 
 
 class InsEkf(ErrorStateNavFilter):
-    """15-state closed-loop error-state filter (attitude, velocity, position, gyro and accelerometer biases).
+    """15-state closed-loop error-state filter (attitude, velocity, position, gyro and accelerometer biases;
+    33 with the IMU's scale factors and misalignments).
 
     ``reset`` needs the initial error covariance ``initial_cov`` (15x15) in the run
     context; the initial error estimate is zero (the INS's own initial estimate is the
     best guess). ``step(inputs)`` takes
 
-    - ``transition`` ``(runs, 15, 15)`` and ``process_noise`` ``(runs, 15, 15)`` of the
-      interval since the previous step, and either
+    - ``transition`` ``(runs, n, n)`` and ``process_noise`` ``(runs, n, n)`` of the
+      interval since the previous step (``n`` = `error_states`: 15, or 33 with the IMU
+      calibration states), and either
     - ``residual_m`` ``(runs, ch, 2)``, ``residual_cov`` ``(runs, ch, 2, 2)``, ``los``
       ``(runs, ch, 3)``, ``cn0_dbhz`` ``(runs, ch)`` (differenced update), or
     - ``position_velocity_error`` ``(runs, 6)`` (INS minus fix, position then velocity)
       and ``position_velocity_cov`` ``(runs, 6, 6)`` (loose update),
 
-    and returns ``error_state`` ``(runs, 15)`` (to subtract from the INS) and ``cov``
+    and returns ``error_state`` ``(runs, n)`` (to subtract from the INS) and ``cov``
     (the posterior covariance of the INS error after that correction). With a range-error
     budget an update also takes ``position_m`` ``(runs, 3)`` (the elevations that map the
     ionospheric and tropospheric states), and a loose one ``fix_range_gain``
