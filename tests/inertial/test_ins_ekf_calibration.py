@@ -14,10 +14,13 @@ from gnssframework.registry import create
 PRIOR = {"gyro_scale_factor_ppm": 300.0, "accel_scale_factor_ppm": 200.0, "gyro_misalignment_mrad": 0.5}
 
 
-def test_loose_update_conditions_the_calibration_states_through_the_transition():
+@pytest.mark.parametrize("estimator", ["kf", "ekf", "ukf", "ckf", "svd-ckf"])
+def test_loose_update_conditions_the_calibration_states_through_the_transition(estimator):
     """One loose update after a transition whose calibration block couples the scale factors
     and misalignments into velocity and position: the 33-state error estimate and the 15-state
-    covariance are Gaussian conditioning on the prior [P0, diag(std^2)] propagated by it."""
+    covariance are Gaussian conditioning on the prior [P0, diag(std^2)] propagated by it, with
+    every estimator of the registry (the sigma-point ones too, whose factorisation must bear
+    the held states' 1e-24 variance beside the position's 1e2)."""
     rng = np.random.default_rng(11)
     runs = 3
     L0 = rng.normal(size=(15, 15))
@@ -34,7 +37,7 @@ def test_loose_update_conditions_the_calibration_states_through_the_transition()
     B = rng.normal(size=(runs, 6, 6))
     R = B @ np.swapaxes(B, 1, 2) + np.eye(6)
     z = rng.normal(size=(runs, 6)) * 3.0
-    ekf = create("nav_filter", "ins-ekf", **PRIOR)
+    ekf = create("nav_filter", "ins-ekf", estimator=estimator, **PRIOR)
     assert ekf.error_states == 33
     ekf.reset((runs,), RunContext(initial_cov=P0))
     out = ekf.step({"transition": Phi, "process_noise": Q, "position_velocity_error": z, "position_velocity_cov": R})
