@@ -520,7 +520,7 @@ def write_sweeps(
                 plot_threshold(out / "plots" / name, config, report, entry, sweeps[i])
         lines += threshold_markdown(config, report)
         sweeps[i]["threshold"] = {k: v for k, v in report.items() if k != "cases"} | {
-            "cases": [{k: v for k, v in c.items() if k != "_samples"} for c in report["cases"]]
+            "cases": [{k: v for k, v in c.items() if not k.startswith("_")} for c in report["cases"]]
         }
         write_json(out / "sweeps" / f"{sweep.label}-threshold.json", sweeps[i]["threshold"])
     return sweeps, lines

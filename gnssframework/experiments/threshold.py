@@ -28,7 +28,16 @@ once and applies them to every candidate and point; each resample's thresholds a
 threshold differences come from the resampled curves, and the interval is the
 percentile interval (2.5 % and 97.5 % quantiles, ``inverted_cdf``: an out-of-grid
 resample counts as :math:`\pm\infty`). The resampling generator is seeded from the
-comparison's seed and the sweep's name, so the interval is reproducible. With ``time_metric``
+comparison's seed and the sweep's name, so the interval is reproducible.
+
+``fit = "logistic"`` reads the threshold off a Firth-penalised logistic curve fitted to every
+point instead (`gnssframework.experiments.threshold_fit`; each resample refitted), which
+covers the between-grid uncertainty that interpolation does not (the interpolated curve's
+threshold is not the loop's where the level is in a tail and the grid coarse), reports the
+fit's deviance test, and widens the interval of a **separated** curve (every point at 0 or
+1: no resample can move it) to the grid interval the crossing lies in; a threshold
+difference involving one is widened to the difference of the two intervals' far ends
+(conservative). With ``time_metric``
 (the censored time to the event, the span when censored), each point also gets the
 Kaplan-Meier restricted mean time to the event (`gnssframework.experiments.survival`).
 """
@@ -36,13 +45,14 @@ Kaplan-Meier restricted mean time to the event (`gnssframework.experiments.survi
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from .stats import finite_or_none
 from .survival import exponential_mean_mle, kaplan_meier
+from .threshold_fit import deviance_test, firth_logistic, fitted_crossing
 
 __all__ = [
     "Threshold",
@@ -67,6 +77,11 @@ class Threshold(BaseModel):
     metric: str = Field(..., description="per-run 0/1 outcome whose mean is the probability (loss_of_lock)")
     level: float = Field(0.5, gt=0, lt=1, description="the probability level the threshold crosses")
     bootstrap: int = Field(2000, ge=100, le=100000, description="bootstrap resamples over runs")
+    fit: Literal["linear", "logistic"] = Field(
+        "linear",
+        description="how the threshold is read: linear interpolation between grid points, or a "
+        "Firth-penalised logistic curve fitted to every point (gnssframework.experiments.threshold_fit)",
+    )
     time_metric: str | None = Field(
         None,
         description="optional per-run time to the event (censored at the span): "
@@ -105,7 +120,12 @@ def _interval(samples: np.ndarray) -> tuple[float, float]:
 
 
 def bootstrap_thresholds(
-    x: np.ndarray, outcomes: dict[str, np.ndarray], level: float, resamples: int, rng: np.random.Generator
+    x: np.ndarray,
+    outcomes: dict[str, np.ndarray],
+    level: float,
+    resamples: int,
+    rng: np.random.Generator,
+    fit: str = "linear",
 ) -> dict[str, Any]:
     """Thresholds of each candidate and their paired differences.
 
@@ -115,22 +135,56 @@ def bootstrap_thresholds(
         ``(points,)`` swept values, increasing.
     outcomes
         candidate -> ``(points, runs)`` 0/1 outcomes, run ``r`` the same run everywhere.
+    fit
+        ``"linear"`` (interpolation) or ``"logistic"`` (a fitted curve, refitted per resample).
 
     Returns
     -------
     dict
-        ``{"threshold": {cand: (estimate, lo, hi)}, "samples": {cand: (resamples,)}}``.
+        ``{"threshold": {cand: (estimate, lo, hi)}, "samples": {cand: (resamples,)}}``; with
+        ``fit="logistic"`` also ``"fit": {cand: {...}}`` (deviance, degrees of freedom,
+        p-value, ``separated`` and the grid interval ``gap`` of a separated curve).
     """
     names = list(outcomes)
     runs = next(iter(outcomes.values())).shape[1]
     idx = rng.integers(0, runs, size=(resamples, runs))
     out: dict[str, Any] = {"threshold": {}, "samples": {}}
+    if fit == "logistic":
+        out["fit"] = {}
     for name in names:
         v = np.asarray(outcomes[name], float)
-        est = float(crossing(x, v.mean(axis=1), level))
-        p_boot = v[:, idx].mean(axis=2)  # (points, resamples)
-        samples = crossing(x, p_boot, level)
-        out["threshold"][name] = (est, *_interval(samples))
+        p = v.mean(axis=1)
+        if fit == "logistic":
+            k = v.sum(axis=1)
+            curve = firth_logistic(x, k, runs)
+            boot_fit = firth_logistic(x, v[:, idx].sum(axis=2), runs)
+            if not (curve.converged and boot_fit.converged):
+                raise ValueError(f"threshold fit of candidate {name!r}: Newton's iteration did not converge")
+            est = float(fitted_crossing(curve, x, level))
+            samples = fitted_crossing(boot_fit, x, level)
+            lo, hi = _interval(samples)
+            dev, df, p_fit = deviance_test(curve, x, k, runs)
+            separated = bool(np.all((p == 0) | (p == 1)) and math.isfinite(est))
+            gap = None
+            if separated:
+                i = int(np.searchsorted(x, float(crossing(x, p, level)), side="right")) - 1
+                gap = (float(x[i]), float(x[min(i + 1, x.size - 1)]))
+                lo, hi = min(lo, gap[0]), max(hi, gap[1])
+            out["fit"][name] = {
+                "deviance": dev,
+                "df": df,
+                "p_value": p_fit,
+                "separated": separated,
+                "gap": gap,
+                "beta": [float(b) for b in curve.beta],
+                "centre": curve.centre,
+                "spread": curve.spread,
+            }
+        else:
+            est = float(crossing(x, p, level))
+            samples = crossing(x, v[:, idx].mean(axis=2), level)
+            lo, hi = _interval(samples)
+        out["threshold"][name] = (est, lo, hi)
         out["samples"][name] = samples
     return out
 
@@ -174,6 +228,7 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
         "metric": spec.metric,
         "level": spec.level,
         "bootstrap": spec.bootstrap,
+        "fit": spec.fit,
         "interval": "paired bootstrap over runs, 95 % percentile",
         "values": [float(v) for v in x[order]],
         "cases": [],
@@ -194,7 +249,11 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
         outcomes = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw.items()}
         times = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw_times.items()}
         runs = len(common)
-        boot = bootstrap_thresholds(x[order], outcomes, spec.level, spec.bootstrap, sweep_seed(config, sweep.label))
+        boot = bootstrap_thresholds(
+            x[order], outcomes, spec.level, spec.bootstrap, sweep_seed(config, sweep.label), fit=spec.fit
+        )
+        intervals = {name: (lo, hi) for name, (_, lo, hi) in boot["threshold"].items()}
+        fits = boot.get("fit", {})
         rows = []
         for name, (est, lo, hi) in boot["threshold"].items():
             p = outcomes[name].mean(axis=1)
@@ -218,17 +277,39 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
                 "n": runs,
                 "curve": curve,
             }
+            if name in fits:
+                f = fits[name]
+                row["fit"] = {
+                    "deviance": f["deviance"],
+                    "df": f["df"],
+                    "p_value": finite_or_none(f["p_value"]),
+                    "separated": f["separated"],
+                    "gap": list(f["gap"]) if f["gap"] else None,
+                    "beta": f["beta"],
+                    "centre": f["centre"],
+                    "spread": f["spread"],
+                }
             if name != ref:
                 d = _differences(boot["samples"][name], boot["samples"][ref])
                 dest = est - boot["threshold"][ref][0]
+                ci = _difference_bounds(d, intervals[name], intervals[ref], _separated(fits, name, ref))
                 row["difference"] = {
                     "reference": ref,
                     "estimate": finite_or_none(dest),
-                    "ci95": [_bound(v) for v in _interval(d)] if d.size else [None, None],
+                    "ci95": [_bound(v) for v in ci] if ci else [None, None],
                     "resamples": int(d.size),
                 }
             rows.append(row)
-        result["cases"].append({"case": case, "runs": runs, "rows": rows, "_samples": boot["samples"]})
+        result["cases"].append(
+            {
+                "case": case,
+                "runs": runs,
+                "rows": rows,
+                "_samples": boot["samples"],
+                "_intervals": intervals,
+                "_fits": fits,
+            }
+        )
     return result
 
 
@@ -250,19 +331,43 @@ def _differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return d[~np.isnan(d)]
 
 
+def _separated(fits: dict, *names: str) -> bool:
+    return any(fits.get(n, {}).get("separated", False) for n in names)
+
+
+def _difference_bounds(
+    d: np.ndarray, a: tuple[float, float], b: tuple[float, float], separated: bool
+) -> tuple[float, float] | None:
+    """The 95 % interval of a threshold difference from its paired resamples ``d``; where
+    either curve is separated (its resamples cannot move it), widened to cover
+    ``[a_lo - b_hi, a_hi - b_lo]`` from the two thresholds' own intervals."""
+    if d.size == 0:
+        return None
+    lo, hi = _interval(d)
+    if separated:
+        with np.errstate(invalid="ignore"):
+            lo, hi = float(np.nanmin([lo, a[0] - b[1]])), float(np.nanmax([hi, a[1] - b[0]]))
+    return lo, hi
+
+
 def difference_interval(report: dict, case: str, candidate: str, reference: str) -> tuple[float, float, float]:
     """Estimate and bootstrap 95 % interval of ``candidate``'s threshold minus
     ``reference``'s in ``case`` of a `threshold_rows` report (``nan`` estimate when
-    either is outside the grid)."""
+    either is outside the grid; widened where a fitted curve is separated)."""
     entry = next(c for c in report["cases"] if c["case"] == case)
     s = entry["_samples"]
     est = {r["candidate"]: r["threshold"] for r in entry["rows"]}
     d = _differences(s[candidate], s[reference])
-    if d.size == 0:
+    ci = _difference_bounds(
+        d,
+        entry["_intervals"][candidate],
+        entry["_intervals"][reference],
+        _separated(entry["_fits"], candidate, reference),
+    )
+    if ci is None:
         return math.nan, -math.inf, math.inf
-    lo, hi = _interval(d)
     e = (est[candidate] - est[reference]) if est[candidate] is not None and est[reference] is not None else math.nan
-    return e, lo, hi
+    return e, ci[0], ci[1]
 
 
 def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None:
@@ -289,8 +394,18 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
         label = row["candidate"] + (
             f" ({t:.1f} [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}])" if t is not None else f" ({row['where']})"
         )
-        (line,) = ax.plot(xs, p, marker="o", ms=3, lw=1.0, label=label)
+        fitted = row.get("fit")
+        (line,) = ax.plot(xs, p, marker="o", ms=3, lw=0 if fitted else 1.0, label=label)
         ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.15, lw=0)
+        if fitted:
+            fine = np.linspace(xs[0], xs[-1], 200)
+            b0, b1 = fitted["beta"]
+            ax.plot(
+                fine,
+                1 / (1 + np.exp(-(b0 + b1 * (fine - fitted["centre"]) / fitted["spread"]))),
+                lw=1.0,
+                color=line.get_color(),
+            )
         if t is not None:
             ax.axvline(t, color=line.get_color(), lw=0.8, ls="--")
             lo_t = _num(row["ci95"][0]) if math.isfinite(_num(row["ci95"][0])) else xs[0]
@@ -303,7 +418,8 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
     ax.legend(fontsize=6)
     ax.set_title(
         f"{config.name} - {entry['case']}: {entry['runs']} paired runs, Wilson 95 % bands;\n"
-        f"threshold at p = {report['level']:g} (dashed), paired-bootstrap 95 % interval (shaded)",
+        f"threshold at p = {report['level']:g} (dashed), paired-bootstrap 95 % interval (shaded)"
+        + ("; lines: the fitted logistic curves" if report.get("fit") == "logistic" else ""),
         fontsize=7,
     )
     for ax, metric in zip(axes[1:, 0], extra):
@@ -333,15 +449,30 @@ def _fmt(v: float | str | None) -> str:
     return "–" if v is None else v if isinstance(v, str) else f"{v:.2f}"
 
 
+_READ = {
+    "linear": "linear interpolation between grid points",
+    "logistic": "a Firth-penalised logistic curve fitted to every point, refitted per resample; a separated "
+    "curve's interval widened to its grid interval",
+}
+
+
+def _fit_cell(fit: dict | None) -> str:
+    if not fit:
+        return ""
+    p = fit["p_value"]
+    cell = f"{fit['deviance']:.1f} on {fit['df']}" + (f" (p = {p:.2g})" if p is not None else "")
+    return cell + (f"; separated in [{fit['gap'][0]:g}, {fit['gap'][1]:g}]" if fit["separated"] else "")
+
+
 def threshold_markdown(config, report: dict) -> list[str]:
     """The report's threshold section: per case, each candidate's threshold, its interval
     and its paired difference to the reference; the curve's points with the survival."""
     lines = [
         f"## Thresholds along sweep `{report['sweep']}`",
         "",
-        f"Where P({report['metric']}) falls through {report['level']:g} (linear interpolation, read from the top "
-        f"of the grid); intervals: {report['interval']} ({report['bootstrap']} resamples, seeded from the "
-        f"comparison's seed). Table: `sweeps/{report['sweep']}-threshold.json`.",
+        f"Where P({report['metric']}) falls through {report['level']:g} ({_READ[report.get('fit', 'linear')]}, "
+        f"read from the top of the grid); intervals: {report['interval']} ({report['bootstrap']} resamples, seeded "
+        f"from the comparison's seed). Table: `sweeps/{report['sweep']}-threshold.json`.",
         "",
     ]
     for entry in report["cases"]:
@@ -350,8 +481,12 @@ def threshold_markdown(config, report: dict) -> list[str]:
             "",
             f"![threshold](plots/threshold-{report['sweep']}-{entry['case']}.png)",
             "",
-            "| candidate | threshold | 95 % interval | difference to reference | 95 % interval |",
-            "| --- | --- | --- | --- | --- |",
+        ]
+        fitted = report.get("fit") == "logistic"
+        lines += [
+            "| candidate | threshold | 95 % interval | difference to reference | 95 % interval |"
+            + (" fit: deviance on df (p) |" if fitted else ""),
+            "| --- | --- | --- | --- | --- |" + (" --- |" if fitted else ""),
         ]
         for row in entry["rows"]:
             d = row.get("difference")
@@ -363,7 +498,7 @@ def threshold_markdown(config, report: dict) -> list[str]:
             thr = _fmt(row["threshold"]) if row["threshold"] is not None else row["where"]
             lines.append(
                 f"| {row['candidate']} | {thr} | [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}] | "
-                f"{diff[0]} | {diff[1]} |"
+                f"{diff[0]} | {diff[1]} |" + (f" {_fit_cell(row.get('fit'))} |" if fitted else "")
             )
         lines.append("")
         survival = any("km_restricted_mean" in c for r in entry["rows"] for c in r["curve"])

@@ -64,7 +64,7 @@ class _Store:
         return {r: float(v[r]) for r in range(runs)}
 
 
-def _config(claims):
+def _config(claims, fit="linear"):
     from gnssframework.experiments.config import ComparisonConfig
 
     return ComparisonConfig.model_validate(
@@ -85,7 +85,7 @@ def _config(claims):
                     "name": "cn0",
                     "path": "cases.cn0_dbhz",
                     "values": [20.0, 25.0, 30.0, 35.0],
-                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500},
+                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500, "fit": fit},
                 }
             ],
             "claims": claims,
@@ -126,6 +126,47 @@ def test_threshold_claims_are_checked_from_the_paired_bootstrap():
     assert [r["outcome"] for r in rows] == ["holds", "holds", "fails", "fails"]
     assert rows[0]["threshold_difference"] == pytest.approx(-5.0)
     assert rows[0]["threshold_ci95"] == pytest.approx([-5.0, -5.0])
+
+
+def test_fitted_thresholds_reach_the_claims_and_the_report():
+    """``fit = "logistic"``: the report's rows carry the fit, a separated curve's interval is
+    its grid interval, and a claim against it is judged on the widened difference."""
+    from gnssframework.experiments.claims import evaluate_claims
+    from gnssframework.experiments.threshold import threshold_markdown, threshold_rows
+
+    claims = [
+        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
+        # a's curve is separated in [25, 30] and b's crosses near 25: the difference's
+        # interval must reach from about -5 to 0, so a claim of [-4.9, -0.1] cannot hold
+        {
+            "candidate": "b",
+            "reference": "a",
+            "metric": "loss_of_lock",
+            "sweep": "cn0",
+            "threshold_difference": [-4.9, -0.1],
+        },
+    ]
+    config = _config(claims, fit="logistic")
+    u = np.random.default_rng(0).random(40)
+    a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}
+    b = {20.0: np.ones(40), 25.0: (u < 0.5) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
+    store = _Store(config, {"a": a, "b": b})
+    report = threshold_rows(config, store, 0)
+    rows = {r["candidate"]: r for r in report["cases"][0]["rows"]}
+    assert report["fit"] == "logistic"
+    assert rows["a"]["fit"]["separated"] and rows["a"]["ci95"] == [25.0, 30.0]
+    assert not rows["b"]["fit"]["separated"] and 20.0 < rows["b"]["threshold"] < 30.0
+    lo, hi = rows["b"]["difference"]["ci95"]
+    assert lo <= rows["b"]["ci95"][0] - 30.0 and hi >= rows["b"]["ci95"][1] - 25.0
+    outcomes = [r["outcome"] for r in evaluate_claims(config, store)]
+    assert outcomes[1] != "holds"
+    text = "\n".join(threshold_markdown(config, report))
+    assert "Firth-penalised logistic" in text and "separated in [25, 30]" in text
+
+
+def test_an_unknown_fit_is_refused_naming_the_field():
+    with pytest.raises(Exception, match="fit"):
+        _config([], fit="probit")
 
 
 def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
