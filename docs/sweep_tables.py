@@ -40,8 +40,16 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
         "the runs.",
         "",
     ]
+    shown: dict[str, str] = {}
     for sweep in summary.get("sweeps") or []:
         values = sweep["values"]
+        # a sweep over the same points as one already shown (another threshold read off the
+        # same runs) has the same rows: named, not repeated
+        key = repr((values, sweep["cases"], sweep["rows"]))
+        if key in shown:
+            lines += [f"Sweep `{sweep['name']}`: the same points and runs as sweep `{shown[key]}` (above).", ""]
+            continue
+        shown[key] = sweep["name"]
         head = (
             f"| | {sweep['name']} = " + " | ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in values) + " |"
         )
