@@ -199,6 +199,38 @@ def test_cn0_lock_loss_declares_a_run_lost_at_any_window_below_the_limit():
     assert np.isnan(median_error_db(two_none, 25.0)).all()
 
 
+def test_cn0_lock_loss_with_a_consecutive_rule_needs_windows_in_a_row():
+    from gnssframework.experiments.scenarios.tracking_threshold import cn0_lock_loss
+
+    below, above = 20.0, 30.0
+    reading = np.array(
+        [
+            [below, below, above, above, above],
+            [above, below, below, below, above],
+            [below, above, below, below, above],
+            [below, above, above, below, above],
+        ]
+    )
+    # runs (columns) 0: windows 0, 2, 3 below (2 in a row); 1: 0-1; 2: 1-2; 3: 1-3 (3 in a row); 4: none
+    np.testing.assert_array_equal(cn0_lock_loss(reading, 25.0, 1), [1.0, 1.0, 1.0, 1.0, 0.0])
+    np.testing.assert_array_equal(cn0_lock_loss(reading, 25.0, 2), [1.0, 1.0, 1.0, 1.0, 0.0])
+    np.testing.assert_array_equal(cn0_lock_loss(reading, 25.0, 3), [0.0, 0.0, 0.0, 1.0, 0.0])
+    # against a loop over the windows, on random readings
+    rng = np.random.default_rng(3)
+    r = rng.normal(25.0, 1.5, size=(25, 400))
+    for n in (1, 2, 3, 5):
+        loop = []
+        for run in range(r.shape[1]):
+            streak, lost = 0, 0.0
+            for w in r[:, run]:
+                streak = streak + 1 if w < 25.0 else 0
+                lost = 1.0 if streak >= n else lost
+            loop.append(lost)
+        np.testing.assert_array_equal(cn0_lock_loss(r, 25.0, n), loop)
+    # fewer windows than the rule needs: never declared
+    np.testing.assert_array_equal(cn0_lock_loss(reading[:2], 25.0, 3), np.zeros(5))
+
+
 def test_cn0_floor_is_passed_by_pure_noise_in_5_percent_of_windows():
     """The default lock limit, the estimator's noise-only floor on the scenario's window
     (m2m4, 20 intervals of 10 ms): pure noise (unit complex noise, no signal, a seed of

@@ -56,8 +56,9 @@ The receiver's C/N0 estimate
     low, down to the estimator's floor on noise.
 
 A lock test on that reading (``loss_of_lock_by_cn0``)
-    What the receiver would decide from its own reading: a run is lost at the first window
-    (after ``settle_s``) whose reading is below ``cn0_lock_dbhz``, by default the
+    What the receiver would decide from its own reading: a run is lost at the first
+    ``cn0_lock_consecutive`` windows in a row (default 1: the first window; after
+    ``settle_s``) whose readings are below ``cn0_lock_dbhz``, by default the
     estimator's noise-only floor on the window, ``cn0_floor_dbhz`` (the 95th percentile of
     its readings on pure noise, `gnssframework.signal.cn0_estimator.noise_floor_dbhz`: a
     test set lower passes pure noise in more than 5 % of windows). A threshold of this
@@ -194,6 +195,13 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
         "(loss_of_lock_by_cn0): a window whose reading is below it declares loss "
         "(dB-Hz); null: the cn0_estimator's noise-only floor on the window (95th "
         "percentile on pure noise, cn0_floor_dbhz), the lowest C/N0 it can vouch for",
+    )
+    cn0_lock_consecutive: int = Field(
+        1,
+        ge=1,
+        le=100,
+        description="windows in a row that must read below cn0_lock_dbhz before the C/N0 lock test "
+        "declares loss (loss_of_lock_by_cn0; a receiver's declare rule: 1, the first window below)",
     )
 
     @field_validator("cn0_estimator")
@@ -574,7 +582,7 @@ class TrackingThresholdScenario(Scenario):
         cn0_error_db = median_error_db(reading_db, c["cn0_dbhz"])
         floor_dbhz = cn0_floor_dbhz(T, self.params)
         limit = floor_dbhz if self.params.cn0_lock_dbhz is None else self.params.cn0_lock_dbhz
-        lost_by_cn0 = cn0_lock_loss(reading_db, limit)
+        lost_by_cn0 = cn0_lock_loss(reading_db, limit, self.params.cn0_lock_consecutive)
         series = {
             **tracked,
             "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
@@ -642,13 +650,17 @@ def _noise_floor_dbhz(name: str, T: float, width: int) -> float:
     return noise_floor_dbhz(registry.create("cn0_estimator", name), T, width)
 
 
-def cn0_lock_loss(reading_db: np.ndarray, limit_dbhz: float) -> np.ndarray:
-    """Per run, 1.0 if a window's reading ``reading_db (windows, runs)`` is below
-    ``limit_dbhz`` (the receiver's C/N0 lock test declares loss), else 0.0; NaN without a
-    window."""
+def cn0_lock_loss(reading_db: np.ndarray, limit_dbhz: float, consecutive: int = 1) -> np.ndarray:
+    """Per run, 1.0 if ``consecutive`` windows in a row of ``reading_db (windows, runs)``
+    read below ``limit_dbhz`` (the receiver's C/N0 lock test declares loss), else 0.0
+    (also with fewer windows than ``consecutive``); NaN without a window."""
     if reading_db.shape[0] == 0:
         return np.full(reading_db.shape[1], np.nan)
-    return (reading_db < limit_dbhz).any(axis=0).astype(float)
+    below = reading_db < limit_dbhz
+    if below.shape[0] < consecutive:
+        return np.zeros(below.shape[1])
+    runs_below = np.lib.stride_tricks.sliding_window_view(below, consecutive, axis=0)  # (W - n + 1, runs, n)
+    return runs_below.all(axis=-1).any(axis=0).astype(float)
 
 
 def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: TrackingThresholdParams) -> dict:
