@@ -34,7 +34,10 @@ from gnssframework.receiver.navigation.receive import receive
 
 pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
 
-SCENARIO = {"kind": "sample-receiver", "duration_s": 8.0, "satellites": 4, "rate_hz": 5.0}
+# The clean control (no atmosphere, the receiver's models off): these tests check the
+# generator's timing and the receiver's noise; tests/experiments/test_sample_receiver_atmosphere.py
+# checks the atmosphere.
+SCENARIO = {"kind": "sample-receiver", "duration_s": 8.0, "satellites": 4, "rate_hz": 5.0, "atmosphere": False}
 CASE = {"name": "45", "cn0_dbhz": 45.0}
 SEED_KEY = (11, 3)
 C_MPS = 299_792_458.0

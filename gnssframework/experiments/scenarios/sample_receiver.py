@@ -12,8 +12,13 @@ To keep runs short the receiver is given the generator's broadcast ephemerides (
 ``--ephemeris`` option of the commands gives a RINEX navigation file): the first fix
 needs only the TOW of one subframe, not the 18-30 s of subframes 1-3. The recording
 starts ``lead_s`` before a subframe boundary, so the first fix comes about
-``lead_s + 6 s`` in. The signals have no ionospheric or tropospheric delay, and the
-receiver's models of both are off. The noise is drawn from each run's own stream
+``lead_s + 6 s`` in. By default (``atmosphere``) the signals carry an ionosphere,
+``iono_scale`` times the broadcast Klobuchar model's delay, and a troposphere, the
+receiver model's plus ``tropo_zenith_residual_m`` at the zenith, and the receiver corrects
+both with its own models (Klobuchar from ``iono_alpha``/``iono_beta``, given as a
+navigation file's header gives them; Saastamoinen): what is left is the models' error, as
+on a real recording. A case with ``atmosphere = false`` is a clean control: no delay, the
+models off. The noise is drawn from each run's own stream
 (``child("samples")``): every candidate sees the same samples in the same run, so the
 comparison's paired differences are those of the receivers alone.
 
@@ -45,7 +50,7 @@ from ...receiver.tracking.scalar import NCO_COMMANDS
 from ..metric_components import evaluate, undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver_metrics import SERIES, FiniteFraction, FiniteRms, FirstFinite, Last, run_series
-from .sample_receiver_signals import SAMPLE_FORMAT, SignalPlan, signal_plan, write_run_recording
+from .sample_receiver_signals import SAMPLE_FORMAT, Atmosphere, SignalPlan, signal_plan, write_run_recording
 
 __all__ = ["SampleReceiverScenario", "METRICS", "receive_candidate", "candidate_filters", "evaluate_runs"]
 
@@ -82,6 +87,34 @@ class SampleReceiverParams(ScenarioParams):
     )
     coherent_ms: int = Field(10, description="coherent integration after bit synchronisation (ms; divides 20)")
     acquisition: str = Field("pcps", description="acquisition plugin searching all 32 PRNs")
+    atmosphere: bool = Field(
+        True,
+        description="the recordings carry an ionosphere and a troposphere and the receiver corrects both with "
+        "its models (Klobuchar from iono_alpha/iono_beta, Saastamoinen); false: neither, and the "
+        "receiver's models off (a clean control)",
+    )
+    iono_alpha: tuple[float, float, float, float] = Field(
+        (1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08),
+        description="broadcast Klobuchar alpha (s, s/semicircle^n), given to the receiver as a navigation "
+        "file header would (default: tests/data/07590920.05n, RTKLIB's test data, 2005-04-02)",
+    )
+    iono_beta: tuple[float, float, float, float] = Field(
+        (8.8060e04, 1.6380e04, -1.9660e05, -1.3110e05),
+        description="broadcast Klobuchar beta (s, s/semicircle^n; the same file)",
+    )
+    iono_scale: float = Field(
+        1.5,
+        ge=0,
+        le=5,
+        description="true ionospheric delay over the broadcast model's along each line of sight (1.5: the "
+        "correction leaves a third of it; the model removes about half in RMS)",
+    )
+    tropo_zenith_residual_m: float = Field(
+        0.05,
+        ge=-1,
+        le=1,
+        description="true zenith tropospheric delay minus the receiver model's (m), mapped as the model maps",
+    )
 
     @field_validator("acquisition")
     @classmethod
@@ -112,6 +145,9 @@ class SampleReceiverCase(ScenarioParams):
         None, ge=30, le=60, description="C/N0 of every satellite in this case (default: the scenario's)"
     )
     satellites: int | None = Field(None, ge=4, le=12, description="satellites in this case (default: the scenario's)")
+    atmosphere: bool | None = Field(
+        None, description="the atmosphere in this case (default: the scenario's; false: a labelled clean control)"
+    )
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
@@ -233,10 +269,18 @@ class SampleReceiverScenario(Scenario):
                 duration_s=p.duration_s,
                 sample_rate_hz=p.sample_rate_hz,
                 mask_deg=p.mask_deg,
+                atmosphere=self.atmosphere(c),
             )
         except ConfigError as exc:
             field = f"{where}.satellites" if c.satellites is not None else "scenario.satellites"
             raise ConfigError(field, exc.detail) from None
+
+    def atmosphere(self, case: SampleReceiverCase) -> Atmosphere | None:
+        """The case's `Atmosphere` (None: a clean case)."""
+        p = self.params
+        if not (p.atmosphere if case.atmosphere is None else case.atmosphere):
+            return None
+        return Atmosphere(tuple(p.iono_alpha), tuple(p.iono_beta), p.iono_scale, p.tropo_zenith_residual_m)
 
     def time_s(self) -> np.ndarray:
         """The scenario's epochs ``k / rate_hz`` (s from the first sample)."""
@@ -246,18 +290,21 @@ class SampleReceiverScenario(Scenario):
     def receive(
         self, plan: SignalPlan, plugins: dict, path: Path, filters: StageFilters | None = None
     ) -> receive_module.ReceiveResult:
-        """`receive_candidate` on one run's recording, with the generator's ephemerides and
-        the receiver's ionosphere and troposphere models off (the signals have neither)."""
+        """`receive_candidate` on one run's recording, with the generator's ephemerides; the
+        receiver's ionosphere (with the plan's Klobuchar coefficients) and troposphere models
+        on where the recording has an atmosphere, off where it has none."""
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
+        atm = plan.atmosphere
         return receive_candidate(
             recording,
             plugins,
             self.params,
             rinex=plan.ephemerides,
-            ionosphere=False,
-            troposphere=False,
+            ionosphere=atm is not None,
+            troposphere=atm is not None,
             reference_week=plan.week,
             filters=filters,
+            iono_fallback=None if atm is None else atm.iono_utc(),
         )
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
@@ -299,12 +346,14 @@ def receive_candidate(
     troposphere: bool,
     reference_week: int | None,
     filters: StageFilters | None = None,
+    iono_fallback=None,
 ) -> receive_module.ReceiveResult:
     """`receive` on ``recording`` as a candidate builds it: its ``channel_filter`` (with its
     parameters) in the sample tracker and, when it names one, its ``nav_filter`` on the
     pseudoranges and Dopplers from the first least-squares fix; ``params`` gives the
     scenario's ``acquisition``, ``coherent_ms`` and ``rate_hz``. ``filters``: the
-    batch's `candidate_filters` (built here when None)."""
+    batch's `candidate_filters` (built here when None); ``iono_fallback``: Klobuchar
+    coefficients where no channel decodes them (`receive`)."""
     filters = filters if filters is not None else candidate_filters(plugins, params)
     return receive_module.receive(
         recording,
@@ -317,6 +366,7 @@ def receive_candidate(
         reference_week=reference_week,
         nav_filter=_spec(plugins.get("nav_filter")),
         filters=filters,
+        iono_fallback=iono_fallback,
     )
 
 

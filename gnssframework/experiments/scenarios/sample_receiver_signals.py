@@ -8,8 +8,11 @@ receiver propagate the same record with the same algorithm (IS-GPS-200 Table 20-
 `satellite_state`). For each satellite and each 0.5 s chunk, the transmit time of the
 signal received at the chunk's edges (light time and Earth rotation during the flight,
 solved by fixed-point iteration) gives the code phase, the Doppler and the data timing,
-and `generate_if_samples` writes the chunk without noise (no ionosphere, no troposphere:
-the receiver switches both models off). The noise-free sum depends on the case only; the
+and `generate_if_samples` writes the chunk without noise. With an `Atmosphere` the signals
+carry an ionosphere (a multiple of the broadcast Klobuchar model's delay: code delayed,
+carrier advanced) and a troposphere (the receiver model's delay plus a zenith residual),
+and the receiver corrects both with its own models; without one they have neither and
+the receiver switches both models off (a clean control). The noise-free sum depends on the case only; the
 white noise (unit variance per real dimension, which sets each signal's C/N0) is drawn
 per run from the run's own stream, so every candidate of a comparison sees the same
 samples in the same run (common random numbers).
@@ -28,6 +31,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...navigation import lnav
 from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
+from ...navigation.pvt import klobuchar_delay_s, troposphere_delay_m
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.if_samples import generate_if_samples
 from ...signal.spec import SignalSpec
@@ -35,6 +39,7 @@ from ...simulation.constellation import nominal_constellation
 from ...simulation.propagation import elevation_deg
 
 __all__ = [
+    "Atmosphere",
     "SignalPlan",
     "nominal_ephemerides",
     "signal_plan",
@@ -116,12 +121,16 @@ def nominal_ephemerides(toe_s: float, week: int) -> Ephemerides:
     return Ephemerides.concatenate(decoded)
 
 
-def transmit_times(eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float) -> np.ndarray:
+def transmit_times(
+    eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float, delay_m: np.ndarray | None = None
+) -> np.ndarray:
     """Satellite time ``t_SV`` (s of week, ``(S,)``) of the signals received at GPS time
     ``t_rx_s`` at ``receiver_ecef_m``: the flight time ``tau`` solves
     ``c tau = |R(omega_E tau) r_sat(t_rx - tau) - r_rx|`` (the Earth turns during the flight,
     IS-GPS-200 20.3.3.4.3.3.2), then the satellite's L1 clock offset is added
-    (20.3.3.3.3.1-2). Six iterations reach 1e-12 s from a 70 ms start."""
+    (20.3.3.3.3.1-2). Six iterations reach 1e-12 s from a 70 ms start. ``delay_m`` ``(S,)``:
+    a propagation delay beyond the vacuum's (the atmosphere's, m), subtracted as ``delay/c``
+    (the satellite moves under 0.1 mm in that time)."""
     tau = np.full(eph.sv.size, 0.07)
     for _ in range(6):
         st = satellite_state(eph, t_rx_s - tau)
@@ -131,7 +140,55 @@ def transmit_times(eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float)
             [np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1], p[:, 2]], axis=1
         )
         tau = np.linalg.norm(rotated - receiver_ecef_m, axis=1) / _SPEED_OF_LIGHT_MPS
-    return t_rx_s - tau + st.clock_l1_s
+    extra = 0.0 if delay_m is None else np.asarray(delay_m, float) / _SPEED_OF_LIGHT_MPS
+    return t_rx_s - tau - extra + st.clock_l1_s
+
+
+@dataclass(frozen=True)
+class Atmosphere:
+    """A recording's ionosphere and troposphere, and what its receiver is told of them.
+
+    Attributes
+    ----------
+    iono_alpha, iono_beta
+        Broadcast Klobuchar coefficients (IS-GPS-200 20.3.3.5.1.7), handed to the receiver
+        as a navigation file's header gives them (the recording is too short for page 18).
+    iono_scale
+        The true ionospheric delay is this times the broadcast model's (IS-GPS-200
+        20.3.3.5.2.5) along each line of sight: the receiver's correction leaves
+        ``(iono_scale - 1)`` of the model's delay (the model removes about half of the
+        real delay in RMS: Klobuchar 1987; Kaplan and Hegarty 2017, section 10.2.4).
+        It delays the code and advances the carrier.
+    tropo_zenith_residual_m
+        The true zenith tropospheric delay minus the receiver model's (Saastamoinen with a
+        standard atmosphere, `navigation.pvt.troposphere_delay_m`), mapped as that model
+        maps; delays code and carrier alike.
+    """
+
+    iono_alpha: tuple[float, float, float, float]
+    iono_beta: tuple[float, float, float, float]
+    iono_scale: float
+    tropo_zenith_residual_m: float
+
+    def iono_utc(self) -> lnav.IonoUtc:
+        """The coefficients as the receiver's fallback (`receive(..., iono_fallback=...)`)."""
+        return lnav.IonoUtc(self.iono_alpha, self.iono_beta)
+
+    def delays_m(
+        self, sat_ecef_m: np.ndarray, lat_lon_h: tuple[float, float, float], gps_tow_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Code and carrier delays (m, ``(S,)``) of satellites at ``sat_ecef_m`` ``(S, 3)``
+        seen from the receiver at geodetic ``lat_lon_h`` at ``gps_tow_s``."""
+        lat, lon, h = lat_lon_h
+        az, el, _ = pymap3d.ecef2aer(sat_ecef_m[:, 0], sat_ecef_m[:, 1], sat_ecef_m[:, 2], lat, lon, h)
+        iono = (
+            self.iono_scale
+            * _SPEED_OF_LIGHT_MPS
+            * klobuchar_delay_s(self.iono_alpha, self.iono_beta, lat, lon, az, el, gps_tow_s)
+        )
+        sin_e = np.sin(np.radians(np.maximum(el, 1.0)))
+        tropo = troposphere_delay_m(lat, h, el) + self.tropo_zenith_residual_m / sin_e
+        return tropo + iono, tropo - iono
 
 
 @dataclass(frozen=True)
@@ -148,6 +205,8 @@ class SignalPlan:
     week: int
     duration_s: float
     sample_rate_hz: float
+    #: The recording's ionosphere and troposphere (None: neither, and the receiver's models off).
+    atmosphere: Atmosphere | None
     #: The arguments of `signal_plan` that made it (sorted items): what the noise-free
     #: samples are cached by.
     key: tuple
@@ -166,6 +225,7 @@ def signal_plan(
     duration_s: float,
     sample_rate_hz: float,
     mask_deg: float,
+    atmosphere: Atmosphere | None = None,
 ) -> SignalPlan:
     """The ``satellites`` highest satellites above ``mask_deg`` at the recording's start,
     which is ``lead_s`` before the subframe starting at GPS time ``subframe_tow_s``.
@@ -189,6 +249,7 @@ def signal_plan(
                 duration_s=duration_s,
                 sample_rate_hz=sample_rate_hz,
                 mask_deg=mask_deg,
+                atmosphere=atmosphere,
             ).items()
         )
     )
@@ -216,6 +277,7 @@ def signal_plan(
         int(week),
         float(duration_s),
         float(sample_rate_hz),
+        atmosphere,
         key,
     )
 
@@ -234,7 +296,15 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     fs, n_chunks = plan.sample_rate_hz, int(round(plan.duration_s / CHUNK_S))
     n = int(round(CHUNK_S * fs))
     out = np.zeros(n_chunks * n, np.complex64)
-    t_sv0 = transmit_times(sats, rx, plan.start_tow_s)
+
+    def delays(t_rx: float) -> tuple[np.ndarray, np.ndarray]:
+        """The atmosphere's code and carrier delays (m) of the signals received at ``t_rx``."""
+        if plan.atmosphere is None:
+            return np.zeros(sats.sv.size), np.zeros(sats.sv.size)
+        pos = satellite_state(sats, np.full(sats.sv.size, t_rx - 0.075)).position_m
+        return plan.atmosphere.delays_m(pos, plan.receiver_lat_lon_h, t_rx)
+
+    t_sv0 = transmit_times(sats, rx, plan.start_tow_s, delays(plan.start_tow_s)[0])
     bits_per_s, periods_per_s = 1.0 / signal.symbol_period_s, 1.0 / signal.code_period_s  # 50, 1000 for C/A
     # Bits from the one in force 0.1 s before the first sample's transmit time on.
     symbols = [
@@ -244,10 +314,15 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         for k in range(sats.sv.size)
     ]
     phase = np.zeros(sats.sv.size)
-    start = t_sv0
+    code_m, carrier_m = delays(plan.start_tow_s)
+    t_sv0 = transmit_times(sats, rx, plan.start_tow_s, code_m)
+    start, start_carrier = t_sv0, transmit_times(sats, rx, plan.start_tow_s, carrier_m)
     for c in range(n_chunks):
-        end = transmit_times(sats, rx, plan.start_tow_s + (c + 1) * CHUNK_S)
-        doppler_hz = signal.carrier_freq_hz * ((end - start) / CHUNK_S - 1)
+        t_end = plan.start_tow_s + (c + 1) * CHUNK_S
+        code_m, carrier_m = delays(t_end)
+        end, end_carrier = transmit_times(sats, rx, t_end, code_m), transmit_times(sats, rx, t_end, carrier_m)
+        # the carrier's Doppler follows the carrier's range (the ionosphere advances it)
+        doppler_hz = signal.carrier_freq_hz * ((end_carrier - start_carrier) / CHUNK_S - 1)
         for k, prn in enumerate(plan.prns):
             bits, into = symbols[k]
             first_edge_tsv = float(t_sv0[k]) - 0.1 - into
@@ -268,7 +343,7 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
                 signal=signal,
             ).samples
         phase += 2 * np.pi * doppler_hz * CHUNK_S
-        start = end
+        start, start_carrier = end, end_carrier
     return out
 
 
