@@ -153,40 +153,51 @@ def bootstrap_thresholds(
         out["fit"] = {}
     for name in names:
         v = np.asarray(outcomes[name], float)
-        p = v.mean(axis=1)
         if fit == "logistic":
-            k = v.sum(axis=1)
-            curve = firth_logistic(x, k, runs)
-            boot_fit = firth_logistic(x, v[:, idx].sum(axis=2), runs)
-            if not (curve.converged and boot_fit.converged):
-                raise ValueError(f"threshold fit of candidate {name!r}: Newton's iteration did not converge")
-            est = float(fitted_crossing(curve, x, level))
-            samples = fitted_crossing(boot_fit, x, level)
-            lo, hi = _interval(samples)
-            dev, df, p_fit = deviance_test(curve, x, k, runs)
-            separated = bool(np.all((p == 0) | (p == 1)) and math.isfinite(est))
-            gap = None
-            if separated:
-                i = int(np.searchsorted(x, float(crossing(x, p, level)), side="right")) - 1
-                gap = (float(x[i]), float(x[min(i + 1, x.size - 1)]))
-                lo, hi = min(lo, gap[0]), max(hi, gap[1])
-            out["fit"][name] = {
-                "deviance": dev,
-                "df": df,
-                "p_value": p_fit,
-                "separated": separated,
-                "gap": gap,
-                "beta": [float(b) for b in curve.beta],
-                "centre": curve.centre,
-                "spread": curve.spread,
-            }
+            est, lo, hi, samples, out["fit"][name] = _fitted(x, v, idx, level, name)
         else:
-            est = float(crossing(x, p, level))
+            est = float(crossing(x, v.mean(axis=1), level))
             samples = crossing(x, v[:, idx].mean(axis=2), level)
             lo, hi = _interval(samples)
         out["threshold"][name] = (est, lo, hi)
         out["samples"][name] = samples
     return out
+
+
+def _fitted(
+    x: np.ndarray, v: np.ndarray, idx: np.ndarray, level: float, name: str
+) -> tuple[float, float, float, np.ndarray, dict[str, Any]]:
+    """One candidate's threshold off the fitted curve of its outcomes ``v`` ``(points, runs)``
+    and of each resample ``idx`` ``(resamples, runs)``: the estimate, the interval (a
+    separated curve's widened to its grid interval), the resamples' thresholds and the
+    fit's report."""
+    runs = v.shape[1]
+    p, k = v.mean(axis=1), v.sum(axis=1)
+    curve = firth_logistic(x, k, runs)
+    boot_fit = firth_logistic(x, v[:, idx].sum(axis=2), runs)
+    if not (curve.converged and boot_fit.converged):
+        raise ValueError(f"threshold fit of candidate {name!r}: Newton's iteration did not converge")
+    est = float(fitted_crossing(curve, x, level))
+    samples = fitted_crossing(boot_fit, x, level)
+    lo, hi = _interval(samples)
+    dev, df, p_fit = deviance_test(curve, x, k, runs)
+    separated = bool(np.all((p == 0) | (p == 1)) and math.isfinite(est))
+    gap = None
+    if separated:  # no resample can move it: the crossing is known to its grid interval only
+        i = int(np.searchsorted(x, float(crossing(x, p, level)), side="right")) - 1
+        gap = (float(x[i]), float(x[min(i + 1, x.size - 1)]))
+        lo, hi = min(lo, gap[0]), max(hi, gap[1])
+    report = {
+        "deviance": dev,
+        "df": df,
+        "p_value": p_fit,
+        "separated": separated,
+        "gap": gap,
+        "beta": [float(b) for b in curve.beta],
+        "centre": curve.centre,
+        "spread": curve.spread,
+    }
+    return est, lo, hi, samples, report
 
 
 def _bound(v: float) -> float | str:
