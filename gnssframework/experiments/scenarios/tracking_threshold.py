@@ -77,8 +77,9 @@ Jitter
     The thermal formulas leave out the receiver oscillator (below): its jitter adds to them.
 
 Receiver oscillator
-    ``oscillator`` (the scenario's, or a case's own) adds a receiver clock to an analytic
-    case's truth: the two-state clock of a preset of `gnssframework.simulation.clock`
+    ``oscillator`` (the scenario's, or a case's own) adds a receiver clock to a case's
+    truth (analytic or samples source: on samples the signal follows the truth interval
+    by interval): the two-state clock of a preset of `gnssframework.simulation.clock`
     (white and random-walk frequency noise from its Allan-variance h-parameters), drawn
     from each run's own ``"oscillator"`` stream, moving code and carrier together
     (`gnssframework.simulation.clock.oscillator_cycles`). Its phase jitter in a loop of
@@ -166,7 +167,7 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
         "none",
         description="receiver oscillator of every case that sets none: 'none' (an ideal clock) or a preset of "
         "gnssframework.simulation.clock (tcxo, tcxo-hq, ocxo: its Allan-variance h-parameters), whose clock "
-        "bias moves code and carrier together (analytic cases)",
+        "bias moves code and carrier together (analytic and samples cases)",
     )
     sample_rate_hz: float = Field(
         2.046e6,
@@ -237,7 +238,7 @@ class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
         0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; line-of-sight jerk / L1 wavelength)"
     )
     oscillator: Oscillator | None = Field(
-        None, description="receiver oscillator of this case (default: the scenario's; analytic cases)"
+        None, description="receiver oscillator of this case (default: the scenario's)"
     )
     source: Literal["analytic", "samples"] = Field(
         "analytic",
@@ -419,12 +420,6 @@ class TrackingThresholdScenario(Scenario):
                         "the samples source simulates a constant Doppler only; "
                         f'set it to 0 or use source = "analytic" (got {c[key]!r})',
                     )
-            if c["oscillator"] != "none":
-                raise ConfigError(
-                    f"{where}.oscillator" if case.get("oscillator") else "scenario.oscillator",
-                    "the samples source simulates an ideal clock only; "
-                    f'set it to "none" or use source = "analytic" (got {c["oscillator"]!r})',
-                )
             n = c["T"] * p.sample_rate_hz
             if abs(n - round(n)) > 1e-6:
                 raise ConfigError(
@@ -483,7 +478,15 @@ class TrackingThresholdScenario(Scenario):
         c = self._case(case)
         T, d = c["T"], p.early_late_spacing_chips
         if c["source"] == "samples":
-            parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
+            # the samples span two intervals more than the loop (the correlators read ahead)
+            K_span = int(round(c["duration_s"] / T)) + 2
+            clocks = oscillator_cycles(
+                c["oscillator"], K_span, T, draw.child(rng, "oscillator"), runs, self.signal.carrier_freq_hz
+            )
+            parts = [
+                self._track_samples(c, channel, stream, None if clocks is None else clocks[:, r])
+                for r, stream in enumerate(rng.generators)
+            ]
             return {name: np.concatenate([q[name] for q in parts], axis=1) for name in parts[0]}, T
         K = int(round(c["duration_s"] / T))
         clock = oscillator_cycles(
@@ -501,34 +504,52 @@ class TrackingThresholdScenario(Scenario):
         source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         return self._close(channel, truth, c, source), T
 
-    def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    def _track_samples(
+        self, c: dict, channel, rng: np.random.Generator, clock_cycles: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
         """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
-        at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
+        at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0). With
+        ``clock_cycles`` ``(K + 3,)`` (the receiver oscillator's carrier cycles at the edges
+        of the samples' intervals, `oscillator_cycles`) the signal follows the truth's code
+        and carrier interval by interval (`_samples_following`), the oscillator's motion in
+        both."""
         from ...signal.if_samples import generate_if_samples
         from ...receiver.engine.samples import SampleSource
 
         p = self.params
         T, fs = c["T"], p.sample_rate_hz
-        x = generate_if_samples(
-            p.prn,
-            c["duration_s"] + 2 * T,
-            fs,
-            0.0,
-            c["cn0_dbhz"],
-            rng,
-            doppler_hz=p.doppler_hz,
-            complex_samples=True,
-            sample_type="float32",
-        )
-        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(1, p.doppler_hz))
+        doppler = np.full(1, p.doppler_hz)
+        if clock_cycles is None:
+            x = generate_if_samples(
+                p.prn,
+                c["duration_s"] + 2 * T,
+                fs,
+                0.0,
+                c["cn0_dbhz"],
+                rng,
+                doppler_hz=p.doppler_hz,
+                complex_samples=True,
+                sample_type="float32",
+            )
+            samples, noise_std = x.samples, x.noise_std
+            truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=doppler)
+        else:
+            span = LoopTruth.from_dynamics(
+                c["duration_s"] + 2 * T, T, c["cn0_dbhz"], doppler_hz=doppler, extra_cycles=clock_cycles[:, None]
+            )
+            samples, noise_std = _samples_following(span, p.prn, fs, c["cn0_dbhz"], rng)
+            K = int(round(c["duration_s"] / T))
+            truth = LoopTruth.from_dynamics(
+                c["duration_s"], T, c["cn0_dbhz"], doppler_hz=doppler, extra_cycles=clock_cycles[: K + 1, None]
+            )
         source = SampleSource(
-            x.samples,
+            samples,
             fs,
             0.0,
             self.signal.code(p.prn)[None, :],
             T,
             early_late_spacing_chips=p.early_late_spacing_chips,
-            noise_std=x.noise_std,
+            noise_std=noise_std,
         )
         return self._close(channel, truth, c, source)  # the closer resets the filter
 
@@ -593,6 +614,41 @@ class TrackingThresholdScenario(Scenario):
             "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth),
         }
         return evaluate(METRICS, series, (np.arange(K) + 0.5) * T, self)
+
+
+def _samples_following(
+    truth: LoopTruth, prn: int, sample_rate_hz: float, cn0_dbhz: float, rng: np.random.Generator
+) -> tuple[np.ndarray, float]:
+    """Complex baseband samples (``complex64``) of one run's signal following ``truth``
+    (one run) interval by interval: in each interval the code phase and carrier phase start
+    at the truth's values at its first edge and move linearly to its next (the analytic
+    model's interval edges), then unit-variance-per-dimension white noise from ``rng``
+    (the amplitude law of `generate_if_samples`). Returns the samples and the noise sigma."""
+    from ...signal.if_samples import SAMPLE_TYPES, signal_samples
+
+    T = truth.coherent_time_s
+    n = int(round(T * sample_rate_hz))
+    code, carrier = truth.code_phase_chips[:, 0], truth.carrier_phase_rad[:, 0]
+    sigma = SAMPLE_TYPES["float32"]
+    amplitude = np.sqrt(2.0 * sigma**2 * 10.0 ** (cn0_dbhz / 10.0) / sample_rate_hz)
+    out = np.empty(truth.epochs * n, np.complex64)
+    for k in range(truth.epochs):  # a loop over intervals (600 in 6 s), each one vectorised call
+        out[k * n : (k + 1) * n] = signal_samples(
+            truth.signal,
+            prn,
+            n,
+            sample_rate_hz,
+            float(amplitude),
+            float(code[k]),
+            float(code[k + 1] - code[k]) / T,
+            float(carrier[k]),
+            float(carrier[k + 1] - carrier[k]) / n,
+            None,
+            0.0,
+            True,
+        )
+    noise = rng.standard_normal(out.size) + 1j * rng.standard_normal(out.size)
+    return (out + sigma * noise).astype(np.complex64), sigma
 
 
 def cn0_readings_dbhz(prompt: np.ndarray, T: float, p: Any) -> np.ndarray:
