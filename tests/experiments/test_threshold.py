@@ -93,26 +93,19 @@ def _config(claims, fit="linear"):
     )
 
 
+def _claim(**judgement):
+    """A threshold claim of candidate b against a along sweep cn0."""
+    return {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", **judgement}
+
+
 def test_threshold_claims_are_checked_from_the_paired_bootstrap():
     from gnssframework.experiments.claims import evaluate_claims
 
     claims = [
-        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
-        {
-            "candidate": "b",
-            "reference": "a",
-            "metric": "loss_of_lock",
-            "sweep": "cn0",
-            "threshold_difference": [-7.0, -3.0],
-        },
-        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "higher"},
-        {
-            "candidate": "b",
-            "reference": "a",
-            "metric": "loss_of_lock",
-            "sweep": "cn0",
-            "threshold_difference": [-4.9, -4.8],
-        },
+        _claim(threshold="lower"),
+        _claim(threshold_difference=[-7.0, -3.0]),
+        _claim(threshold="higher"),
+        _claim(threshold_difference=[-4.9, -4.8]),
     ]
     config = _config(claims)
     rng = np.random.default_rng(0)
@@ -135,16 +128,10 @@ def test_fitted_thresholds_reach_the_claims_and_the_report():
     from gnssframework.experiments.threshold import threshold_markdown, threshold_rows
 
     claims = [
-        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
+        _claim(threshold="lower"),
         # a's curve is separated in [25, 30] and b's crosses near 25: the difference's
         # interval must reach from about -5 to 0, so a claim of [-4.9, -0.1] cannot hold
-        {
-            "candidate": "b",
-            "reference": "a",
-            "metric": "loss_of_lock",
-            "sweep": "cn0",
-            "threshold_difference": [-4.9, -0.1],
-        },
+        _claim(threshold_difference=[-4.9, -0.1]),
     ]
     config = _config(claims, fit="logistic")
     u = np.random.default_rng(0).random(40)

@@ -12,8 +12,8 @@ and `generate_if_samples` writes the chunk without noise. With an `Atmosphere` t
 carry an ionosphere (a multiple of the broadcast Klobuchar model's delay: code delayed,
 carrier advanced) and a troposphere (the receiver model's delay plus a zenith residual),
 and the receiver corrects both with its own models; without one they have neither and
-the receiver switches both models off (a clean control). The noise-free sum depends on the case only; the
-white noise (unit variance per real dimension, which sets each signal's C/N0) is drawn
+the receiver switches both models off (a clean control). The noise-free sum depends on
+the case only; the white noise (unit variance per real dimension, which sets each signal's C/N0) is drawn
 per run from the run's own stream, so every candidate of a comparison sees the same
 samples in the same run (common random numbers).
 """
@@ -304,7 +304,8 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         pos = satellite_state(sats, np.full(sats.sv.size, t_rx - 0.075)).position_m
         return plan.atmosphere.delays_m(pos, plan.receiver_lat_lon_h, t_rx)
 
-    t_sv0 = transmit_times(sats, rx, plan.start_tow_s, delays(plan.start_tow_s)[0])
+    code_m, carrier_m = delays(plan.start_tow_s)
+    t_sv0 = transmit_times(sats, rx, plan.start_tow_s, code_m)
     bits_per_s, periods_per_s = 1.0 / signal.symbol_period_s, 1.0 / signal.code_period_s  # 50, 1000 for C/A
     # Bits from the one in force 0.1 s before the first sample's transmit time on.
     symbols = [
@@ -314,8 +315,6 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         for k in range(sats.sv.size)
     ]
     phase = np.zeros(sats.sv.size)
-    code_m, carrier_m = delays(plan.start_tow_s)
-    t_sv0 = transmit_times(sats, rx, plan.start_tow_s, code_m)
     start, start_carrier = t_sv0, transmit_times(sats, rx, plan.start_tow_s, carrier_m)
     for c in range(n_chunks):
         t_end = plan.start_tow_s + (c + 1) * CHUNK_S
