@@ -30,8 +30,11 @@ percentile interval (2.5 % and 97.5 % quantiles, ``inverted_cdf``: an out-of-gri
 resample counts as :math:`\pm\infty`). The resampling generator is seeded from the
 comparison's seed and the sweep's name, so the interval is reproducible.
 
-``fit = "logistic"`` reads the threshold off a Firth-penalised logistic curve fitted to every
-point instead (`gnssframework.experiments.threshold_fit`; each resample refitted), which
+``fit = "logistic"`` (or ``"probit"``, ``"cloglog"``, ``"loglog"``: other shapes) reads the
+threshold off a Firth-penalised curve fitted to every point instead
+(`gnssframework.experiments.threshold_fit`; each resample refitted; ``"best"`` takes per
+curve and per resample the link of smallest deviance, so the interval carries the shape's
+choice), which
 covers the between-grid uncertainty that interpolation does not (the interpolated curve's
 threshold is not the loop's where the level is in a tail and the grid coarse), reports the
 fit's deviance test, and widens the interval of a **separated** curve (every point at 0 or
@@ -52,7 +55,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .stats import finite_or_none
 from .survival import exponential_mean_mle, kaplan_meier
-from .threshold_fit import deviance_test, firth_logistic, fitted_crossing
+from .threshold_fit import LINKS, best_link_fit, deviance_test, deviances, firth_binomial, fitted_crossing
 
 __all__ = [
     "Threshold",
@@ -77,10 +80,11 @@ class Threshold(BaseModel):
     metric: str = Field(..., description="per-run 0/1 outcome whose mean is the probability (loss_of_lock)")
     level: float = Field(0.5, gt=0, lt=1, description="the probability level the threshold crosses")
     bootstrap: int = Field(2000, ge=100, le=100000, description="bootstrap resamples over runs")
-    fit: Literal["linear", "logistic"] = Field(
+    fit: Literal["linear", "logistic", "probit", "cloglog", "loglog", "best"] = Field(
         "linear",
         description="how the threshold is read: linear interpolation between grid points, or a "
-        "Firth-penalised logistic curve fitted to every point (gnssframework.experiments.threshold_fit)",
+        "Firth-penalised curve of that link fitted to every point, or 'best': per curve and "
+        "resample the link of smallest deviance (gnssframework.experiments.threshold_fit)",
     )
     time_metric: str | None = Field(
         None,
@@ -136,25 +140,27 @@ def bootstrap_thresholds(
     outcomes
         candidate -> ``(points, runs)`` 0/1 outcomes, run ``r`` the same run everywhere.
     fit
-        ``"linear"`` (interpolation) or ``"logistic"`` (a fitted curve, refitted per resample).
+        ``"linear"`` (interpolation), a link of `threshold_fit.LINKS` (a fitted curve,
+        refitted per resample) or ``"best"`` (per curve, the link of smallest deviance).
 
     Returns
     -------
     dict
         ``{"threshold": {cand: (estimate, lo, hi)}, "samples": {cand: (resamples,)}}``; with
-        ``fit="logistic"`` also ``"fit": {cand: {...}}`` (deviance, degrees of freedom,
-        p-value, ``separated`` and the grid interval ``gap`` of a separated curve).
+        a fitted curve also ``"fit": {cand: {...}}`` (link, deviance, degrees of freedom,
+        p-value, ``separated`` and the grid interval ``gap`` of a separated curve; with
+        ``"best"`` every link's deviance and the share of resamples that chose each).
     """
     names = list(outcomes)
     runs = next(iter(outcomes.values())).shape[1]
     idx = rng.integers(0, runs, size=(resamples, runs))
     out: dict[str, Any] = {"threshold": {}, "samples": {}}
-    if fit == "logistic":
+    if fit != "linear":
         out["fit"] = {}
     for name in names:
         v = np.asarray(outcomes[name], float)
-        if fit == "logistic":
-            est, lo, hi, samples, out["fit"][name] = _fitted(x, v, idx, level, name)
+        if fit != "linear":
+            est, lo, hi, samples, out["fit"][name] = _fitted(x, v, idx, level, name, fit)
         else:
             est = float(crossing(x, v.mean(axis=1), level))
             samples = crossing(x, v[:, idx].mean(axis=2), level)
@@ -164,8 +170,12 @@ def bootstrap_thresholds(
     return out
 
 
+def _fit(x: np.ndarray, k: np.ndarray, runs: int, link: str):
+    return best_link_fit(x, k, runs) if link == "best" else firth_binomial(x, k, runs, link)
+
+
 def _fitted(
-    x: np.ndarray, v: np.ndarray, idx: np.ndarray, level: float, name: str
+    x: np.ndarray, v: np.ndarray, idx: np.ndarray, level: float, name: str, link: str
 ) -> tuple[float, float, float, np.ndarray, dict[str, Any]]:
     """One candidate's threshold off the fitted curve of its outcomes ``v`` ``(points, runs)``
     and of each resample ``idx`` ``(resamples, runs)``: the estimate, the interval (a
@@ -173,10 +183,10 @@ def _fitted(
     fit's report."""
     runs = v.shape[1]
     p, k = v.mean(axis=1), v.sum(axis=1)
-    curve = firth_logistic(x, k, runs)
-    boot_fit = firth_logistic(x, v[:, idx].sum(axis=2), runs)
+    curve = _fit(x, k, runs, link)
+    boot_fit = _fit(x, v[:, idx].sum(axis=2), runs, link)
     if not (curve.converged and boot_fit.converged):
-        raise ValueError(f"threshold fit of candidate {name!r}: Newton's iteration did not converge")
+        raise ValueError(f"threshold fit of candidate {name!r} ({link}): the iteration did not converge")
     est = float(fitted_crossing(curve, x, level))
     samples = fitted_crossing(boot_fit, x, level)
     lo, hi = _interval(samples)
@@ -188,6 +198,7 @@ def _fitted(
         gap = (float(x[i]), float(x[min(i + 1, x.size - 1)]))
         lo, hi = min(lo, gap[0]), max(hi, gap[1])
     report = {
+        "link": str(curve.link),
         "deviance": dev,
         "df": df,
         "p_value": p_fit,
@@ -197,6 +208,9 @@ def _fitted(
         "centre": curve.centre,
         "spread": curve.spread,
     }
+    if link == "best":
+        report["deviances"] = {n: float(deviances(firth_binomial(x, k, runs, n), x, k, runs)) for n in LINKS}
+        report["resample_links"] = {n: float(np.mean(boot_fit.link == n)) for n in LINKS}
     return est, lo, hi, samples, report
 
 
@@ -291,6 +305,7 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
             if name in fits:
                 f = fits[name]
                 row["fit"] = {
+                    "link": f["link"],
                     "deviance": f["deviance"],
                     "df": f["df"],
                     "p_value": finite_or_none(f["p_value"]),
@@ -299,6 +314,7 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
                     "beta": f["beta"],
                     "centre": f["centre"],
                     "spread": f["spread"],
+                    **{key: f[key] for key in ("deviances", "resample_links") if key in f},
                 }
             if name != ref:
                 d = _differences(boot["samples"][name], boot["samples"][ref])
@@ -413,7 +429,7 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
             b0, b1 = fitted["beta"]
             ax.plot(
                 fine,
-                1 / (1 + np.exp(-(b0 + b1 * (fine - fitted["centre"]) / fitted["spread"]))),
+                LINKS[fitted["link"]].cdf(b0 + b1 * (fine - fitted["centre"]) / fitted["spread"]),
                 lw=1.0,
                 color=line.get_color(),
             )
@@ -430,7 +446,7 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
     ax.set_title(
         f"{config.name} - {entry['case']}: {entry['runs']} paired runs, Wilson 95 % bands;\n"
         f"threshold at p = {report['level']:g} (dashed), paired-bootstrap 95 % interval (shaded)"
-        + ("; lines: the fitted logistic curves" if report.get("fit") == "logistic" else ""),
+        + (_CURVES[report["fit"]] if report.get("fit", "linear") != "linear" else ""),
         fontsize=7,
     )
     for ax, metric in zip(axes[1:, 0], extra):
@@ -462,9 +478,15 @@ def _fmt(v: float | str | None) -> str:
 
 _READ = {
     "linear": "linear interpolation between grid points",
-    "logistic": "a Firth-penalised logistic curve fitted to every point, refitted per resample; a separated "
-    "curve's interval widened to its grid interval",
+    **{
+        link: f"a Firth-penalised {link} curve fitted to every point, refitted per resample; a separated "
+        "curve's interval widened to its grid interval"
+        for link in LINKS
+    },
+    "best": "per candidate the Firth-penalised curve of the link (logistic, probit, cloglog, loglog) with the "
+    "smallest deviance, chosen again per resample; a separated curve's interval widened to its grid interval",
 }
+_CURVES = {**{link: f"; lines: the fitted {link} curves" for link in LINKS}, "best": "; lines: the best-fitting curves"}
 
 
 def _fit_cell(fit: dict | None) -> str:
@@ -472,6 +494,9 @@ def _fit_cell(fit: dict | None) -> str:
         return ""
     p = fit["p_value"]
     cell = f"{fit['deviance']:.1f} on {fit['df']}" + (f" (p = {p:.2g})" if p is not None else "")
+    if "resample_links" in fit:
+        share = ", ".join(f"{n} {v:.0%}" for n, v in fit["resample_links"].items() if v > 0)
+        cell = f"{fit['link']}: {cell}; resamples: {share}"
     return cell + (f"; separated in [{fit['gap'][0]:g}, {fit['gap'][1]:g}]" if fit["separated"] else "")
 
 
@@ -493,7 +518,7 @@ def threshold_markdown(config, report: dict) -> list[str]:
             f"![threshold](plots/threshold-{report['sweep']}-{entry['case']}.png)",
             "",
         ]
-        fitted = report.get("fit") == "logistic"
+        fitted = report.get("fit", "linear") != "linear"
         lines += [
             "| candidate | threshold | 95 % interval | difference to reference | 95 % interval |"
             + (" fit: deviance on df (p) |" if fitted else ""),

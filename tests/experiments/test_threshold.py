@@ -151,9 +151,39 @@ def test_fitted_thresholds_reach_the_claims_and_the_report():
     assert "Firth-penalised logistic" in text and "separated in [25, 30]" in text
 
 
+def test_the_best_link_reaches_the_report_and_the_plot(tmp_path):
+    """``fit = "best"``: each row names its curve's link, every link's deviance (the chosen
+    one the smallest) and the share of resamples that chose each; the markdown says so and
+    the plot draws the chosen link's curve (its pixels differ from the logistic one's)."""
+    from gnssframework.experiments.threshold import plot_threshold, threshold_markdown, threshold_rows
+    from gnssframework.experiments.threshold_fit import LINKS
+
+    config = _config([], fit="best")
+    u = np.random.default_rng(3).random((4, 40))
+    # a: a Gumbel-like fall (fast from 1, slow to 0); b: shifted down by 5 dB
+    a = {20.0: (u[0] < 0.99) * 1.0, 25.0: (u[1] < 0.6) * 1.0, 30.0: (u[2] < 0.25) * 1.0, 35.0: (u[3] < 0.1) * 1.0}
+    b = {20.0: (u[0] < 0.6) * 1.0, 25.0: (u[1] < 0.25) * 1.0, 30.0: (u[2] < 0.1) * 1.0, 35.0: (u[3] < 0.04) * 1.0}
+    report = threshold_rows(config, _Store(config, {"a": a, "b": b}), 0)
+    for row in report["cases"][0]["rows"]:
+        fit = row["fit"]
+        assert fit["link"] in LINKS and set(fit["deviances"]) == set(LINKS)
+        assert fit["deviances"][fit["link"]] == min(fit["deviances"].values())
+        assert fit["deviance"] == pytest.approx(fit["deviances"][fit["link"]])
+        assert sum(fit["resample_links"].values()) == pytest.approx(1.0)
+    text = "\n".join(threshold_markdown(config, report))
+    assert "smallest deviance" in text and "resamples: " in text
+    entry = report["cases"][0]
+    sweep = {"path": "cases.cn0_dbhz", "rows": []}
+    plot_threshold(tmp_path / "best.png", config, report, entry, sweep)
+    for row in entry["rows"]:
+        row["fit"]["link"] = "logistic" if row["fit"]["link"] != "logistic" else "cloglog"
+    plot_threshold(tmp_path / "other.png", config, report, entry, sweep)
+    assert (tmp_path / "best.png").read_bytes() != (tmp_path / "other.png").read_bytes()
+
+
 def test_an_unknown_fit_is_refused_naming_the_field():
     with pytest.raises(Exception, match="fit"):
-        _config([], fit="probit")
+        _config([], fit="weibull")
 
 
 def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
