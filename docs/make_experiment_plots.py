@@ -92,7 +92,7 @@ CI_COST_S = {
     "deep_integration_error_sources": 55,
     "scintillation_sweep": 51,
     "scintillation_rate_lock": 40,
-    "tracking_threshold": 29,
+    "tracking_threshold": 43,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
     "tracking_threshold_oscillator_tuned": 40,

@@ -41,6 +41,7 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
         "",
     ]
     shown: dict[str, str] = {}
+    grids: dict[str, str] = {}  # the first sweep shown over each list of points and cases
     for sweep in summary.get("sweeps") or []:
         values = sweep["values"]
         # a sweep over the same points as one already shown (another threshold read off the
@@ -50,6 +51,18 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
             lines += [f"Sweep `{sweep['name']}`: the same points and runs as sweep `{shown[key]}` (above).", ""]
             continue
         shown[key] = sweep["name"]
+        grids.setdefault(repr((values, sweep["cases"])), sweep["name"])
+        # a refined sweep over a grid already shown: only its added points' columns
+        added = sweep.get("refined") or []
+        grid = [v for v in values if v not in added]
+        base = grids.get(repr((grid, sweep["cases"])))
+        if added and base is not None:
+            lines += [
+                f"Sweep `{sweep['name']}`: the points of sweep `{base}` (above, the same runs) and "
+                f"{len(added)} points added around the thresholds read off them; the added points:",
+                "",
+            ]
+            values = added
         head = (
             f"| | {sweep['name']} = " + " | ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in values) + " |"
         )

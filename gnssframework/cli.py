@@ -117,6 +117,7 @@ def _print_work_estimate(config) -> None:
             f"work: {batches:,} batches, {runs:,} filter runs ({len(config.cases)} cases x "
             f"{len(config.candidates)} candidates x {config.runs} runs, {len(config.sweeps)} sweeps"
             + (", tuning" if config.tuning is not None else "")
+            + (", refined sweeps add points after their grids" if any(s.refine for s in config.sweeps) else "")
             + "); finished batches are kept, Ctrl-C and the "
             "same command resumes",
             flush=True,

@@ -266,6 +266,7 @@ class ComparisonConfig(_Strict):
         return self
 
     _points: dict[int, list[tuple[Any, Any]]] = PrivateAttr(default_factory=dict)
+    _refined: dict[int, list[float]] = PrivateAttr(default_factory=dict)
     _scenario: Any = PrivateAttr(None)
     _candidates: tuple[CandidatePlan, ...] | None = PrivateAttr(None)
 
@@ -292,10 +293,20 @@ class ComparisonConfig(_Strict):
         return self._candidates
 
     def sweep_points(self, index: int) -> list[tuple[Any, ComparisonConfig]]:
-        """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
+        """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``),
+        the points its refinement added (`set_refinement`) among them, in order."""
         if index not in self._points:
             self._points[index] = expand_sweep(self, index)
         return self._points[index]
+
+    def refinement(self, index: int) -> list[float]:
+        """The points added to ``sweeps[index]``'s grid by its ``refine`` table (none yet: [])."""
+        return list(self._refined.get(index, []))
+
+    def set_refinement(self, index: int, values: list[float]) -> None:
+        """Add ``values`` (`sweeps.refined_values`) to ``sweeps[index]``'s points."""
+        self._refined[index] = [float(v) for v in values]
+        self._points[index] = expand_sweep(self, index)
 
     @property
     def reference_name(self) -> str:

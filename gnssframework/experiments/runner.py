@@ -42,6 +42,7 @@ from .metric_components import evaluate
 from .metrics import Metric, metric_component
 from .run_plan import RunPlan, resolve, task_streams
 from .store import plan_batches
+from .sweeps import refined_values
 from .tasks import Task, plan, series_file
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
@@ -312,6 +313,60 @@ def replicate_config(config: ComparisonConfig) -> ComparisonConfig:
     return type(config).model_validate(data)
 
 
+def _run_points(
+    config: ComparisonConfig,
+    replica: ComparisonConfig | None,
+    store: Any,
+    out: Path,
+    progress: bool,
+    on_batch: Callable[[Task], None] | None,
+) -> None:
+    """Run every unfinished batch of ``config``, its sweep points and, with ``replica``, the
+    replicate runs of both; a point equal to another (same identity) runs once."""
+    jobs, where = [], []
+    seen: set[tuple[str, str, str, int, int]] = set()
+    points = comparison_points(config)
+    if replica is not None:  # labelled, so its runs keep their metrics only (the series are the evaluation's)
+        points += [
+            ("replicate" if label is None else f"replicate {label}", point)
+            for label, point in comparison_points(replica)
+        ]
+    for label, point in points:
+        key = point.identity()
+        store.register(key, point.batch_size)
+        done = store.finished_batches(key)
+        _say_recomputed(store.damaged_batches(key, done), label)
+        resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
+        for t in plan(point, label):
+            ident = (
+                key,
+                point.cases[t.case_index].name,
+                point.candidates[t.candidate_index].name,
+                t.first_run,
+                t.runs,
+            )
+            if ident[1:] in done or ident in seen:
+                continue
+            seen.add(ident)
+            jobs.append((resolved, t))
+            where.append((label, point, key))
+    bar = Progress(len(jobs), config.name, "batch") if progress and jobs else None
+    with closing(_execute(jobs, config.executor)) as results:  # closed at once on Ctrl-C: workers stop
+        for i, (task, metrics, series, time_s) in results:
+            label, point, key = where[i]
+            case = point.cases[task.case_index].name
+            cand = point.candidates[task.candidate_index].name
+            if label is None:  # sweep points keep their metrics only (the store), not the time series
+                _save_series(out, point, task, series, time_s)
+            store.add_batch(key, case, cand, task.first_run, metrics)
+            if on_batch is not None:
+                on_batch(task)
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
+
+
 def run_comparison(
     config: ComparisonConfig,
     out: str | Path,
@@ -359,48 +414,17 @@ def run_comparison(
             write_trial_record(out / TRIALS_FILE, config, tuning)
             config = tuned_config(config, tuning)
         replica = replicate_config(config) if replicate else None
-        # Every unfinished batch of the comparison and of its sweep points, the comparison's
-        # first; a point equal to another (same identity) runs once.
-        jobs, where = [], []
-        seen: set[tuple[str, str, str, int, int]] = set()
-        points = comparison_points(config)
-        if replica is not None:  # labelled, so its runs keep their metrics only (the series are the evaluation's)
-            points += [
-                ("replicate" if label is None else f"replicate {label}", point)
-                for label, point in comparison_points(replica)
-            ]
-        for label, point in points:
-            key = point.identity()
-            store.register(key, point.batch_size)
-            done = store.finished_batches(key)
-            _say_recomputed(store.damaged_batches(key, done), label)
-            resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
-            for t in plan(point, label):
-                ident = (
-                    key,
-                    point.cases[t.case_index].name,
-                    point.candidates[t.candidate_index].name,
-                    t.first_run,
-                    t.runs,
-                )
-                if ident[1:] in done or ident in seen:
-                    continue
-                seen.add(ident)
-                jobs.append((resolved, t))
-                where.append((label, point, key))
-        bar = Progress(len(jobs), config.name, "batch") if progress and jobs else None
-        with closing(_execute(jobs, config.executor)) as results:  # closed at once on Ctrl-C: workers stop
-            for i, (task, metrics, series, time_s) in results:
-                label, point, key = where[i]
-                case = point.cases[task.case_index].name
-                cand = point.candidates[task.candidate_index].name
-                if label is None:  # sweep points keep their metrics only (the store), not the time series
-                    _save_series(out, point, task, series, time_s)
-                store.add_batch(key, case, cand, task.first_run, metrics)
-                if on_batch is not None:
-                    on_batch(task)
-                if bar is not None:
-                    bar.update()
-        if bar is not None:
-            bar.close()
+        _run_points(config, replica, store, out, progress, on_batch)
+        # Sweeps with a refine table: points around each threshold read off the grid's runs,
+        # then those points' batches (the replicate runs get the same points).
+        refined = False
+        for i, sweep in enumerate(config.sweeps):
+            if sweep.refine is not None and not config.refinement(i):
+                values = refined_values(config, store, i)
+                config.set_refinement(i, values)
+                if replica is not None:
+                    replica.set_refinement(i, values)
+                refined = refined or bool(values)
+        if refined:
+            _run_points(config, replica, store, out, progress, on_batch)
         return write_report(config, store, out, tuning=tuning, replicate=replica, figures=figures)

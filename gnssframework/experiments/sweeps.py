@@ -26,6 +26,26 @@ a grid). Every point runs every case and candidate with the same seed, so the po
 share their random numbers (common random numbers along the sweep as well as between
 candidates), and is stored in the comparison's result store under the point's own
 identity: an interrupted sweep resumes where it stopped, with identical numbers.
+
+A threshold sweep may refine its grid around the thresholds it finds::
+
+    [[sweeps]]
+    name = "cn0-fine"
+    path = "cases.cn0_dbhz"
+    start = 15.0
+    stop = 45.0
+    step = 2.5
+    threshold = { metric = "loss_of_lock", level = 0.1, fit = "logistic" }
+    refine = { step = 0.5 }
+
+Once the grid's runs are in, each case's and candidate's threshold is read off the grid
+(the sweep's own ``threshold`` reading), and every grid cell its bootstrap interval
+reaches gets a point every ``refine.step`` (`refined_values`); those points then run like
+the grid's (every case and candidate, the same runs) and the sweep's tables, threshold
+and claims use grid and added points together. The added points follow from the seed, so
+a resumed comparison adds the same ones; more than ``refine.max_points`` is refused. A
+sweep over the same grid without ``refine`` keeps the grid-only reading beside it (its
+points are the same runs).
 """
 
 from __future__ import annotations
@@ -47,12 +67,25 @@ from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 from .threshold import Threshold, plot_threshold, threshold_markdown, threshold_rows
 
-__all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps", "check_thresholds"]
+__all__ = ["Sweep", "Refine", "expand_sweep", "refined_values", "sweep_rows", "write_sweeps", "check_thresholds"]
 
 
 #: Most points of one sweep, given as values or as a range: each point is a whole
 #: comparison's work, and validating 100,000 listed values alone took minutes.
 MAX_SWEEP_POINTS = 1000
+
+
+class Refine(BaseModel):
+    """The ``refine`` table of a threshold sweep: points added around each threshold."""
+
+    model_config = ConfigDict(extra="forbid")
+    step: float = Field(..., gt=0, description="spacing of the added points (smaller than the grid's)")
+    max_points: int = Field(
+        40,
+        ge=1,
+        le=MAX_SWEEP_POINTS,
+        description="most points refinement may add; more is refused (a coarser step, or a raised bound)",
+    )
 
 
 class Sweep(BaseModel):
@@ -89,6 +122,11 @@ class Sweep(BaseModel):
         "along the sweep, with a paired bootstrap interval "
         "(gnssframework.experiments.threshold)",
     )
+    refine: Refine | None = Field(
+        None,
+        description="after the grid, add points every refine.step across the grid cells each "
+        "candidate's threshold interval lies in (needs threshold; gnssframework.experiments.sweeps)",
+    )
 
     @field_validator("name")
     @classmethod
@@ -115,6 +153,20 @@ class Sweep(BaseModel):
                 raise ValueError(f"step = {self.step} does not lead from start = {self.start} to stop = {self.stop}")
             if (self.stop - self.start) / self.step > MAX_SWEEP_POINTS:
                 raise ValueError(f"more than {MAX_SWEEP_POINTS} points; use a larger step")
+        return self
+
+    @model_validator(mode="after")
+    def _refinable(self) -> Sweep:
+        if self.refine is None:
+            return self
+        if self.threshold is None:
+            raise ValueError("refine adds points around a threshold: give the sweep a threshold table")
+        pts = self.points()
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in pts) or len(pts) < 2:
+            raise ValueError("refine needs at least two numeric swept values")
+        gap = float(np.min(np.diff(np.sort(np.asarray(pts, float)))))
+        if self.refine.step >= gap:
+            raise ValueError(f"refine.step = {self.refine.step:g} must be smaller than the grid's spacing ({gap:g})")
         return self
 
     @property
@@ -238,7 +290,11 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
     locations = _resolve(config, sweep, where)
     base = config.model_dump(mode="json", exclude={"sweeps", "claims", "tuning"}, exclude_none=True)
     out = []
-    for j, value in enumerate(sweep.points()):
+    grid = sweep.points()
+    added = config.refinement(index)
+    values = sorted(grid + added, key=float) if added else grid
+    for value in values:
+        j = grid.index(value) if value in grid else None
         data = copy.deepcopy(base)
         for keys in locations:
             _set(data, keys, value, sweep.path, f"{where}.path")
@@ -246,22 +302,66 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
         if sweep.cases:
             data["cases"] = [c for c in data["cases"] if c["name"] in sweep.cases]
             data["published"] = {k: v for k, v in data.get("published", {}).items() if k in sweep.cases}
+        at = f"{where}.values[{j}]" if j is not None else f"{where}.refine"
         try:
             point = model.model_validate(data)
         except ConfigError as exc:
-            raise ConfigError(f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {exc}") from None
+            raise ConfigError(at, f"{sweep.path} = {value!r}: {exc}") from None
         except Exception as exc:  # pydantic's ValidationError, made one line by the config loader
             from pydantic import ValidationError
 
             from ..plugin import validation_message
 
             if isinstance(exc, ValidationError):
-                raise ConfigError(
-                    f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}"
-                ) from None
+                raise ConfigError(at, f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}") from None
             raise
         out.append((value, point))
     return out
+
+
+def refined_values(config, store, index: int) -> list[float]:
+    """The points ``sweeps[index].refine`` adds, read off the grid's runs in ``store``.
+
+    For every case and candidate whose threshold lies in the grid, the grid cells its
+    bootstrap interval reaches (from the last grid value at or below the interval's lower
+    end to the first at or above its upper end; an infinite end: the grid's end) get a
+    point every ``refine.step`` from the cell's lower value, the grid values themselves
+    excluded. The union over cases and candidates, in order. The interval is the sweep's
+    own threshold reading (its level and ``fit``) on the grid, so the points are fixed by
+    the seed: a resumed run adds the same ones.
+
+    Raises
+    ------
+    ConfigError
+        ``sweeps[index].refine`` when more than ``refine.max_points`` would be added.
+    """
+    sweep = config.sweeps[index]
+    if sweep.refine is None:
+        return []
+    if config.refinement(index):
+        raise ValueError(f"sweeps[{index}] is refined already")
+    report = threshold_rows(config, store, index)
+    grid = np.array(sorted(float(v) for v in sweep.points()))
+    step = sweep.refine.step
+    added: set[float] = set()
+    for entry in report["cases"] if report else []:
+        for row in entry["rows"]:
+            if row["threshold"] is None:
+                continue  # beyond the grid: nothing between grid points to refine
+            lo, hi = (float(v) for v in row["ci95"])
+            a = grid[max(0, int(np.searchsorted(grid, lo, side="right")) - 1)] if math.isfinite(lo) else grid[0]
+            b = grid[min(grid.size - 1, int(np.searchsorted(grid, hi, side="left")))] if math.isfinite(hi) else grid[-1]
+            k = np.arange(1, int(math.floor((b - a) / step + 1e-9)) + 1)
+            for v in np.round(a + step * k, 12):
+                if not np.any(np.isclose(v, grid, rtol=0, atol=1e-9 * max(1.0, abs(v)))):
+                    added.add(float(v))
+    if len(added) > sweep.refine.max_points:
+        raise ConfigError(
+            f"sweeps[{index}].refine",
+            f"{len(added)} points around the thresholds of sweep {sweep.label!r} exceed max_points = "
+            f"{sweep.refine.max_points}; give a larger step or raise max_points",
+        )
+    return sorted(added)
 
 
 # -- report ---------------------------------------------------------------------------------
@@ -312,7 +412,8 @@ def sweep_rows(config, store) -> list[dict]:
             {
                 "name": sweep.label,
                 "path": sweep.path,
-                "values": sweep.points(),
+                "values": [v for v, _ in config.sweep_points(i)],
+                "refined": config.refinement(i),
                 "cases": [c.name for c in config.cases if not sweep.cases or c.name in sweep.cases],
                 "rows": rows,
                 "paired": paired,
@@ -462,6 +563,12 @@ def _markdown(config, sweep: dict) -> list[str]:
         "(**\\***: significant). Table: `sweeps/" + sweep["name"] + ".csv`.",
         "",
     ]
+    if sweep.get("refined"):
+        lines += [
+            f"Refined: {len(sweep['refined'])} points added around the thresholds read off the grid "
+            f"({', '.join(f'{v:g}' for v in sweep['refined'])}).",
+            "",
+        ]
     for case in sweep["cases"]:
         lines += [f"### {case}", "", f"![sweep {sweep['name']}](plots/sweep-{sweep['name']}-{case}.png)", ""]
         if len(names) > 1:
