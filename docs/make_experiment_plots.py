@@ -62,6 +62,7 @@ EXAMPLES = (
     "tracking_threshold",
     "tracking_threshold_oscillator",
     "tracking_threshold_oscillator_tuned",
+    "tracking_threshold_cn0_lock",
     "vector_tracking_realistic",
     "deep_integration_realistic_ci",
     "deep_integration_threshold_ci",
@@ -93,6 +94,7 @@ CI_COST_S = {
     "scintillation_sweep": 51,
     "scintillation_rate_lock": 40,
     "tracking_threshold": 43,
+    "tracking_threshold_cn0_lock": 20,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
     "tracking_threshold_oscillator_tuned": 40,
@@ -224,6 +226,8 @@ SWEEP_TABLES["tracking_threshold_oscillator"] = ["loss_of_lock", "phase_jitter_r
 # ... and each loop tuned for its threshold under the GNSS-grade TCXO by the same rule.
 SWEEP_TABLES["tracking_threshold_oscillator_tuned"] = ["loss_of_lock", "phase_jitter_rad"]
 SWEEP_TABLES["deep_integration_threshold_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction"]
+# ... and the threshold the receiver reads off its own C/N0 test, per declare rule and estimator.
+SWEEP_TABLES["tracking_threshold_cn0_lock"] = ["loss_of_lock_by_cn0", "cn0_estimate_error_db"]
 SWEEP_TABLES["tracking_threshold"] = [
     "loss_of_lock",
     "loss_of_code_freq_lock",

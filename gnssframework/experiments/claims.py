@@ -264,10 +264,11 @@ class Claim(BaseModel):
     def _one_kind(self) -> Claim:
         self._new_kinds()
         if self.threshold is not None or self.threshold_difference is not None:
-            if self.reference is None or self.sweep is None:
+            if (self.reference is None and self.reference_case is None) or self.sweep is None:
                 raise ValueError(
                     "a threshold claim compares the candidate's threshold with a reference candidate's "
-                    'along a sweep: give reference = "<candidate>" and sweep = "<name>"'
+                    'along a sweep: give reference = "<candidate>" (or reference_case = "<case>") and '
+                    'sweep = "<name>"'
                 )
             others = [
                 k
@@ -276,7 +277,6 @@ class Claim(BaseModel):
                     "ratio_max",
                     "ratio_min",
                     "within",
-                    "reference_case",
                     "versus_metric",
                     "at",
                     "points_from",
@@ -286,8 +286,10 @@ class Claim(BaseModel):
             ]
             if others:
                 raise ValueError(f"a threshold claim is about the whole sweep; {', '.join(others)} is a separate claim")
-            if self.reference == self.candidate:
-                raise ValueError("the reference must be another candidate")
+            if self.reference == self.candidate and self.reference_case is None:
+                raise ValueError("the reference must be another candidate (or the same in a reference_case)")
+            if self.case is not None and self.case == self.reference_case:
+                raise ValueError(f"case and reference_case are both {self.case!r}: compare two cases")
             bounds = self.threshold_difference
             if bounds is not None and not bounds[0] < bounds[1]:
                 raise ValueError(
@@ -421,11 +423,14 @@ class Claim(BaseModel):
     def statement(self) -> str:
         """The claim in words."""
         parts = []
+        theirs = f"{self.reference or self.candidate}'s" + (
+            f" in {self.reference_case}" if self.reference_case is not None else ""
+        )
         if self.threshold is not None:
-            parts.append(f"threshold of {self.metric} along {self.sweep} {self.threshold} than {self.reference}'s")
+            parts.append(f"threshold of {self.metric} along {self.sweep} {self.threshold} than {theirs}")
         if self.threshold_difference is not None:
             lo, hi = self.threshold_difference
-            parts.append(f"threshold of {self.metric} along {self.sweep} minus {self.reference}'s in [{lo:g}, {hi:g}]")
+            parts.append(f"threshold of {self.metric} along {self.sweep} minus {theirs} in [{lo:g}, {hi:g}]")
         ref = ratio_ref = f"{self.reference}'s"
         if self.reference_case is not None:
             own = self.reference in (None, self.candidate)
@@ -908,10 +913,11 @@ def _threshold_claim_rows(config, i: int, claim: Claim, report: dict) -> list[di
     candidate's threshold minus the reference's (`gnssframework.experiments.threshold`)."""
     from .threshold import _bound, difference_interval
 
-    names = [c["case"] for c in report["cases"]]
+    names = [c["case"] for c in report["cases"] if c["case"] != claim.reference_case]
+    reference = claim.reference or claim.candidate
     out = []
     for case in [claim.case] if claim.case else names:
-        est, lo, hi = difference_interval(report, case, claim.candidate, claim.reference)
+        est, lo, hi = difference_interval(report, case, claim.candidate, reference, claim.reference_case)
         outcomes = []
         if claim.threshold is not None:
             outcomes.append(_against(lo, hi, 0.0, claim.threshold == "lower"))
@@ -926,7 +932,8 @@ def _threshold_claim_rows(config, i: int, claim: Claim, report: dict) -> list[di
                 "sweep": claim.sweep,
                 "point": "threshold",
                 "candidate": claim.candidate,
-                "reference": claim.reference,
+                "reference": reference,
+                **({"reference_case": claim.reference_case} if claim.reference_case is not None else {}),
                 "metric": claim.metric,
                 "note": claim.note,
                 "threshold_difference": finite_or_none(est),

@@ -274,6 +274,8 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
         outcomes = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw.items()}
         times = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw_times.items()}
         runs = len(common)
+        # a fresh generator of the same seed per case: every case with the same runs draws
+        # the same resample indices, so thresholds of two cases pair resample by resample
         boot = bootstrap_thresholds(
             x[order], outcomes, spec.level, spec.bootstrap, sweep_seed(config, sweep.label), fit=spec.fit
         )
@@ -333,6 +335,7 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
                 "runs": runs,
                 "rows": rows,
                 "_samples": boot["samples"],
+                "_runs": common,
                 "_intervals": intervals,
                 "_fits": fits,
             }
@@ -377,23 +380,33 @@ def _difference_bounds(
     return lo, hi
 
 
-def difference_interval(report: dict, case: str, candidate: str, reference: str) -> tuple[float, float, float]:
-    """Estimate and bootstrap 95 % interval of ``candidate``'s threshold minus
-    ``reference``'s in ``case`` of a `threshold_rows` report (``nan`` estimate when
-    either is outside the grid; widened where a fitted curve is separated)."""
+def difference_interval(
+    report: dict, case: str, candidate: str, reference: str, reference_case: str | None = None
+) -> tuple[float, float, float]:
+    """Estimate and bootstrap 95 % interval of ``candidate``'s threshold in ``case`` minus
+    ``reference``'s (in ``reference_case``, default the same case) of a `threshold_rows`
+    report (``nan`` estimate when either is outside the grid; widened where a fitted curve
+    is separated). Across cases the resamples pair because every case's bootstrap draws
+    the same run indices (`threshold_rows`); cases whose runs differ are refused."""
     entry = next(c for c in report["cases"] if c["case"] == case)
-    s = entry["_samples"]
-    est = {r["candidate"]: r["threshold"] for r in entry["rows"]}
-    d = _differences(s[candidate], s[reference])
+    other = entry if reference_case is None else next(c for c in report["cases"] if c["case"] == reference_case)
+    if other["_runs"] != entry["_runs"]:
+        raise ValueError(
+            f"threshold difference between cases {case!r} and {reference_case!r}: their runs differ "
+            f"({len(entry['_runs'])} against {len(other['_runs'])} common to every candidate and point)"
+        )
+    a = next(r["threshold"] for r in entry["rows"] if r["candidate"] == candidate)
+    b = next(r["threshold"] for r in other["rows"] if r["candidate"] == reference)
+    d = _differences(entry["_samples"][candidate], other["_samples"][reference])
     ci = _difference_bounds(
         d,
         entry["_intervals"][candidate],
-        entry["_intervals"][reference],
-        _separated(entry["_fits"], candidate, reference),
+        other["_intervals"][reference],
+        _separated(entry["_fits"], candidate) or _separated(other["_fits"], reference),
     )
     if ci is None:
         return math.nan, -math.inf, math.inf
-    e = (est[candidate] - est[reference]) if est[candidate] is not None and est[reference] is not None else math.nan
+    e = (a - b) if a is not None and b is not None else math.nan
     return e, ci[0], ci[1]
 
 

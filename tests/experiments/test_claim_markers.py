@@ -79,11 +79,11 @@ CONSISTENT = re.compile(
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
 #: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0`` (``at CASE`` after the sweep for a
-#: claim of one case).
+#: claim of one case; ``pll in static along ...`` for a reference in another case).
 THRESHOLD = re.compile(
     r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+threshold\s+"
     r"(?:(?P<threshold>lower|higher) than|within \[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\] of)\s+"
-    r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
+    r"(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
     r"(?:\s+within\s+\[(?P<dlow>[^,\]]+),\s*(?P<dhigh>[^\]]+)\])?$"
 )
 
@@ -147,9 +147,11 @@ def _matches(claim: dict, want: dict) -> bool:
         low, high = (want["low"], want["high"]) if want["low"] is not None else (want["dlow"], want["dhigh"])
         difference = None if low is None else (float(low), float(high))
         got = claim.get("threshold_difference")
+        reference = claim.get("reference") or claim["candidate"]  # with reference_case: the candidate itself
         return (
-            (claim["candidate"], claim["metric"], claim.get("reference"), claim.get("sweep"), claim.get("case"))
+            (claim["candidate"], claim["metric"], reference, claim.get("sweep"), claim.get("case"))
             == (want["candidate"], want["metric"], want["reference"], want["sweep"], want["case"])
+            and claim.get("reference_case") == want["reference_case"]
             and claim.get("threshold") == want["threshold"]
             and (None if got is None else tuple(float(v) for v in got)) == difference
         )

@@ -254,3 +254,104 @@ def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
     assert (tmp_path / "out" / "sweeps" / "cn0-threshold.json").is_file()
     assert "Thresholds along sweep" in (tmp_path / "out" / "report.md").read_text()
     assert [c["outcome"] for c in summary["claims"]] == ["holds"]
+
+
+class _CaseStore(_Store):
+    """Outcomes by case, candidate and swept value."""
+
+    def run_values(self, key, case, candidate, metric, runs):
+        v = self.outcomes[case][candidate][self.by_key[key]]
+        return {r: float(v[r]) for r in range(runs)}
+
+
+def _two_case_config(claims):
+    from gnssframework.experiments.config import ComparisonConfig
+
+    return ComparisonConfig.model_validate(
+        {
+            "name": "t",
+            "runs": 40,
+            "batch_size": 40,
+            "seed": 4,
+            "reference": "a",
+            "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
+            "cases": [
+                {"name": "one", "cn0_dbhz": 30.0},
+                {"name": "three", "cn0_dbhz": 30.0, "streams": "one", "cn0_lock_consecutive": 3},
+            ],
+            "candidates": [
+                {"name": "a", "channel_filter": "scalar"},
+                {"name": "b", "channel_filter": "kf-carrier-loop"},
+            ],
+            "sweeps": [
+                {
+                    "name": "cn0",
+                    "path": "cases.cn0_dbhz",
+                    "values": [20.0, 25.0, 30.0, 35.0],
+                    "threshold": {"metric": "loss_of_lock_by_cn0", "level": 0.5, "bootstrap": 500},
+                }
+            ],
+            "claims": claims,
+        }
+    )
+
+
+def test_threshold_claims_between_cases_pair_the_same_runs():
+    """A candidate's threshold in one case against its own (or another candidate's) in a
+    reference case: the resamples pair run by run, so a curve shifted by exactly one grid
+    step on the same runs differs by exactly -5 dB in every resample."""
+    from gnssframework.experiments.claims import evaluate_claims
+
+    claims = [
+        {"candidate": "a", "metric": "loss_of_lock_by_cn0", "sweep": "cn0", "case": "three"}
+        | {"reference_case": "one", "threshold": "lower", "threshold_difference": [-5.5, -4.5]},
+        {"candidate": "a", "metric": "loss_of_lock_by_cn0", "sweep": "cn0", "case": "three"}
+        | {"reference_case": "one", "threshold_difference": [-4.9, -4.8]},
+        {"candidate": "a", "reference": "b", "metric": "loss_of_lock_by_cn0", "sweep": "cn0"}
+        | {"case": "three", "reference_case": "one", "threshold": "higher"},
+    ]
+    config = _two_case_config(claims)
+    u = np.random.default_rng(0).random(40)
+    one = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: (u < 0.6) * 1.0, 35.0: np.zeros(40)}
+    three = {20.0: np.ones(40), 25.0: (u < 0.6) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
+    low = {20.0: np.ones(40), 25.0: np.zeros(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}  # crosses at 22.5
+    store = _CaseStore(config, {"one": {"a": one, "b": low}, "three": {"a": three, "b": low}})
+    rows = evaluate_claims(config, store)
+    assert [r["outcome"] for r in rows] == ["holds", "fails", "holds"]
+    assert rows[0]["threshold_difference"] == pytest.approx(-5.0)
+    assert rows[0]["threshold_ci95"] == pytest.approx([-5.0, -5.0])
+    assert rows[0]["reference"] == "a" and rows[0]["reference_case"] == "one"
+    assert "threshold of loss_of_lock_by_cn0 along cn0 lower than a's in one" in rows[0]["statement"]
+    # a in three against b in one (22.5)
+    x = np.array([20.0, 25.0, 30.0, 35.0])
+    a_three = float(crossing(x, np.array([three[v].mean() for v in x]), 0.5))
+    assert 20.0 < a_three < 30.0 and rows[2]["threshold_difference"] == pytest.approx(a_three - 22.5)
+
+
+def test_threshold_claims_between_cases_are_refused_where_they_cannot_be_read():
+    with pytest.raises(Exception, match="case and reference_case are both 'one'"):
+        _two_case_config(
+            [
+                {"candidate": "a", "metric": "loss_of_lock_by_cn0", "sweep": "cn0", "case": "one"}
+                | {"reference_case": "one", "threshold": "lower"}
+            ]
+        )
+    with pytest.raises(Exception, match="reference_case"):
+        _two_case_config(
+            [
+                {"candidate": "a", "metric": "loss_of_lock_by_cn0", "sweep": "cn0", "reference_case": "nowhere"}
+                | {"threshold": "lower"}
+            ]
+        )
+    with pytest.raises(Exception, match="the reference must be another candidate"):
+        _two_case_config(
+            [
+                {
+                    "candidate": "a",
+                    "reference": "a",
+                    "metric": "loss_of_lock_by_cn0",
+                    "sweep": "cn0",
+                    "threshold": "lower",
+                }
+            ]
+        )

@@ -252,3 +252,27 @@ def test_cn0_floor_is_passed_by_pure_noise_in_5_percent_of_windows():
     assert abs(above - 0.05) < 4 * se, (above, floor)
     p1 = SimpleNamespace(cn0_estimator="m2m4", cn0_window_s=0.02, settle_s=0.0)
     assert abs(cn0_floor_dbhz(0.001, p1) - floor - 10.0) < 0.3
+
+
+def test_a_cases_own_cn0_test_is_the_scenarios_with_that_setting():
+    """A case's cn0_estimator, cn0_window_s and cn0_lock_consecutive give the metrics the
+    scenario gives with those settings, on the same runs; the tracking is untouched."""
+    own = {"cn0_estimator": "snv", "cn0_window_s": 0.3, "cn0_lock_consecutive": 2}
+    base = get_scenario({"kind": "tracking-threshold", "duration_s": 3.0})
+    scenario_wide = get_scenario({"kind": "tracking-threshold", "duration_s": 3.0, **own})
+    plugins = {"channel_filter": _scalar(18.0)}
+    by_case = base.run_batch({"cn0_dbhz": 26.0, **own}, plugins, 24, 5).metrics
+    by_scenario = scenario_wide.run_batch({"cn0_dbhz": 26.0}, plugins, 24, 5).metrics
+    default = base.run_batch({"cn0_dbhz": 26.0}, plugins, 24, 5).metrics
+    for name in ("loss_of_lock_by_cn0", "cn0_estimate_error_db", "cn0_floor_dbhz", "loss_of_lock", "phase_jitter_rad"):
+        np.testing.assert_array_equal(by_case[name], by_scenario[name], err_msg=name)
+    np.testing.assert_array_equal(by_case["loss_of_lock"], default["loss_of_lock"])
+    assert by_case["cn0_floor_dbhz"][0] != default["cn0_floor_dbhz"][0]  # another estimator and window
+
+
+def test_a_cases_estimator_that_reads_more_than_the_prompt_is_refused():
+    from gnssframework.errors import ConfigError
+
+    sc = get_scenario({"kind": "tracking-threshold", "duration_s": 3.0})
+    with pytest.raises(ConfigError, match=r"cases\[0\].cn0_estimator.*'noise-channel' reads prompt, noise"):
+        sc.check_case({"name": "c", "cn0_dbhz": 30.0, "cn0_estimator": "noise-channel"}, "cases[0]")

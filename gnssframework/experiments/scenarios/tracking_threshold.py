@@ -208,17 +208,25 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     @field_validator("cn0_estimator")
     @classmethod
     def _prompt_only(cls, name: str) -> str:
-        from ... import registry
+        return prompt_only_estimator(name)
 
-        estimator = registry.get("cn0_estimator", name)  # an unknown name: the registry's error, with the names
-        if tuple(estimator.needs) != ("prompt",):
-            raise ConfigError(
-                "cn0_estimator",
-                f"{name!r} reads {', '.join(estimator.needs)}; the scenario simulates "
-                "the prompt only: choose an estimator of the prompt alone (m2m4, narrow-wide, snv, "
-                "beaulieu)",
-            )
-        return name
+
+def prompt_only_estimator(name: str | None) -> str | None:
+    """``name`` if it is a cn0_estimator of the prompt alone (the one output the scenario
+    simulates); else a one-line error naming the field."""
+    from ... import registry
+
+    if name is None:
+        return None
+    estimator = registry.get("cn0_estimator", name)  # an unknown name: the registry's error, with the names
+    if tuple(estimator.needs) != ("prompt",):
+        raise ConfigError(
+            "cn0_estimator",
+            f"{name!r} reads {', '.join(estimator.needs)}; the scenario simulates "
+            "the prompt only: choose an estimator of the prompt alone (m2m4, narrow-wide, snv, "
+            "beaulieu)",
+        )
+    return name
 
 
 class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
@@ -245,6 +253,29 @@ class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
         description="correlators from the analytic model (all runs at once) or from IF samples "
         "(complex, generated per run, correlated by the compiled kernels; static cases only)",
     )
+    cn0_estimator: str | None = Field(
+        None, description="this case's receiver C/N0 estimator (default: the scenario's cn0_estimator)"
+    )
+    cn0_window_s: float | None = Field(
+        None, gt=0, le=60, description="this case's C/N0 estimation window (s; default the scenario's)"
+    )
+    cn0_lock_dbhz: float | None = Field(
+        None, ge=0, le=60, description="this case's C/N0 lock test limit (dB-Hz; default the scenario's)"
+    )
+    cn0_lock_consecutive: int | None = Field(
+        None,
+        ge=1,
+        le=100,
+        description="this case's declare rule: windows in a row below the limit (default the scenario's)",
+    )
+
+    @field_validator("cn0_estimator")
+    @classmethod
+    def _prompt_only(cls, name: str | None) -> str | None:
+        try:
+            return prompt_only_estimator(name)
+        except ConfigError as exc:  # a value error: the config loader names the case's field
+            raise ValueError(exc.detail) from None
 
 
 def lock_loss(
@@ -405,6 +436,17 @@ class TrackingThresholdScenario(Scenario):
             "oscillator": c.oscillator or p.oscillator,
             "source": c.source,
         }
+
+    def cn0_params(self, case: dict) -> TrackingThresholdParams:
+        """The scenario's parameters with the case's own C/N0 estimator, window, lock limit and
+        declare rule where it sets them (what the C/N0 lock test of the case reads)."""
+        c = self.CaseParams.model_validate(case)
+        update = {
+            k: getattr(c, k)
+            for k in ("cn0_estimator", "cn0_window_s", "cn0_lock_dbhz", "cn0_lock_consecutive")
+            if getattr(c, k) is not None
+        }
+        return self.params.model_copy(update=update) if update else self.params
 
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, and its duration against settling and one lock-test block."""
@@ -599,11 +641,12 @@ class TrackingThresholdScenario(Scenario):
         thermal_phase = float(np.sqrt(pll_thermal_variance_rad2(c["cn0_dbhz"], bandwidth, T)))
         thermal_code = code_thermal_std_chips(channel, c["cn0_dbhz"], T, self.params.early_late_spacing_chips)
         K = phase_err.shape[0]
-        reading_db = cn0_readings_dbhz(tracked.pop("prompt"), T, self.params)
+        cn0 = self.cn0_params(case)  # the scenario's C/N0 test, or the case's own
+        reading_db = cn0_readings_dbhz(tracked.pop("prompt"), T, cn0)
         cn0_error_db = median_error_db(reading_db, c["cn0_dbhz"])
-        floor_dbhz = cn0_floor_dbhz(T, self.params)
-        limit = floor_dbhz if self.params.cn0_lock_dbhz is None else self.params.cn0_lock_dbhz
-        lost_by_cn0 = cn0_lock_loss(reading_db, limit, self.params.cn0_lock_consecutive)
+        floor_dbhz = cn0_floor_dbhz(T, cn0)
+        limit = floor_dbhz if cn0.cn0_lock_dbhz is None else cn0.cn0_lock_dbhz
+        lost_by_cn0 = cn0_lock_loss(reading_db, limit, cn0.cn0_lock_consecutive)
         series = {
             **tracked,
             "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
