@@ -132,3 +132,65 @@ def test_a_case_can_be_the_clean_control():
     scenario = get_scenario({"kind": "sample-receiver", "satellites": 4})
     assert scenario.plan({"name": "sky", "cn0_dbhz": 45.0}).atmosphere is not None
     assert scenario.plan({"name": "clean", "cn0_dbhz": 45.0, "atmosphere": False}).atmosphere is None
+
+
+def test_orbit_and_clock_errors_move_the_fix_by_their_least_squares_mapping():
+    """A signal later than the broadcast ephemeris says by ``orbit_clock_m`` per satellite
+    (the models otherwise exact): the fix moves by the weighted least-squares mapping of
+    those ranges, (G^T W G)^-1 G^T W, within the rounding."""
+    from dataclasses import replace
+
+    import pymap3d
+
+    from gnssframework.experiments.scenarios.sample_receiver_signals import with_atmosphere
+
+    exact = _plan(iono_scale=1.0, tropo_zenith_residual_m=0.0)
+    bias = np.array([1.5, -0.8, 0.3, 2.0, -1.2, 0.6])
+    plan = with_atmosphere(exact, replace(exact.atmosphere, orbit_clock_m=tuple(bias)))
+    assert plan.key != exact.key  # its own samples
+    error, sat, _ = _fix(plan, models=True)
+    lat, lon, h = plan.receiver_lat_lon_h
+    _, el, _ = pymap3d.ecef2aer(sat[:, 0], sat[:, 1], sat[:, 2], lat, lon, h)
+    rx = np.array(plan.receiver_ecef_m)
+    u = (sat - rx) / np.linalg.norm(sat - rx, axis=1, keepdims=True)
+    G = np.hstack([-u, np.ones((u.shape[0], 1))])
+    W = np.diag(np.sin(np.radians(el)) ** 2)
+    predicted = np.linalg.solve(G.T @ W @ G, G.T @ W @ bias)[:3]
+    np.testing.assert_allclose(error, predicted, atol=ROUNDING_M)
+    assert np.linalg.norm(predicted) > 0.5
+
+
+def test_each_run_draws_its_own_errors_from_its_own_stream():
+    """Every run its own atmosphere and orbit and clock errors, from the run's ``errors``
+    stream: the same run gets the same draws whatever its batch; the spreads over many
+    runs are the stated ones; a clean case, or spreads of 0, keep the case's plan."""
+    scenario = get_scenario({"kind": "sample-receiver", "satellites": 6, "duration_s": 8.0})
+    plan = scenario.plan(CASE)
+
+    def drawn(first, runs):
+        streams = random_streams.as_run_streams(
+            random_streams.run_streams(5, (1,), list(range(first, first + runs))), runs
+        )
+        return [scenario.run_plan(plan, g).atmosphere for g in streams.child("errors").generators]
+
+    batch = drawn(0, 4)
+    assert drawn(2, 1)[0] == batch[2] and batch[0] != batch[1]
+    many = drawn(0, 2000)
+    scale = np.array([a.iono_scale for a in many])
+    tropo = np.array([a.tropo_zenith_residual_m for a in many])
+    orbit = np.array([a.orbit_clock_m for a in many])
+    p = scenario.params
+    for values, mean, std in ((scale, p.iono_scale, p.iono_scale_std), (tropo, 0.05, 0.03), (orbit, 0.0, 0.6)):
+        se = std / np.sqrt(values.size)  # of the mean; the spread's own SE is std / sqrt(2 n)
+        assert abs(values.mean() - mean) < 4 * se, (values.mean(), mean)
+        assert abs(values.std() - std) < 4 * std / np.sqrt(2 * values.size), (values.std(), std)
+    assert orbit.shape == (2000, 6)
+    assert abs(np.corrcoef(orbit[:, 0], orbit[:, 1])[0, 1]) < 4 / np.sqrt(2000)  # independent satellites
+    clean = scenario.plan({"name": "clean", "cn0_dbhz": 45.0, "atmosphere": False})
+    assert scenario.run_plan(clean, np.random.default_rng(0)) is clean
+    still = get_scenario(
+        {"kind": "sample-receiver", "satellites": 6, "iono_scale_std": 0, "tropo_zenith_residual_std_m": 0}
+        | {"orbit_clock_residual_std_m": 0}
+    )
+    fixed = still.plan(CASE)
+    assert still.run_plan(fixed, np.random.default_rng(0)) is fixed

@@ -17,8 +17,15 @@ starts ``lead_s`` before a subframe boundary, so the first fix comes about
 receiver model's plus ``tropo_zenith_residual_m`` at the zenith, and the receiver corrects
 both with its own models (Klobuchar from ``iono_alpha``/``iono_beta``, given as a
 navigation file's header gives them; Saastamoinen): what is left is the models' error, as
-on a real recording. A case with ``atmosphere = false`` is a clean control: no delay, the
-models off. The noise is drawn from each run's own stream
+on a real recording. Each satellite's signal also carries a broadcast orbit and clock
+error along its line of sight (``orbit_clock_residual_std_m``, SISRE) that the receiver's
+ephemeris does not. Every run draws its own (`SampleReceiverScenario.run_plan`, from the
+run's ``child("errors")`` stream, the same for every candidate): the ionosphere's scale
+(spread ``iono_scale_std``), the troposphere's residual (``tropo_zenith_residual_std_m``)
+and the orbit and clock errors, so a case's errors are a distribution over runs, not one
+sky (each run's recording is then generated anew: about 2 s each). A case with
+``atmosphere = false`` is a clean control: no delay, no orbit or clock error, the models
+off. The noise is drawn from each run's own stream
 (``child("samples")``): every candidate sees the same samples in the same run, so the
 comparison's paired differences are those of the receivers alone.
 
@@ -50,7 +57,14 @@ from ...receiver.tracking.scalar import NCO_COMMANDS
 from ..metric_components import evaluate, undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver_metrics import SERIES, FiniteFraction, FiniteRms, FirstFinite, Last, run_series
-from .sample_receiver_signals import SAMPLE_FORMAT, Atmosphere, SignalPlan, signal_plan, write_run_recording
+from .sample_receiver_signals import (
+    SAMPLE_FORMAT,
+    Atmosphere,
+    SignalPlan,
+    signal_plan,
+    with_atmosphere,
+    write_run_recording,
+)
 
 __all__ = ["SampleReceiverScenario", "METRICS", "receive_candidate", "candidate_filters", "evaluate_runs"]
 
@@ -115,6 +129,28 @@ class SampleReceiverParams(ScenarioParams):
         le=1,
         description="true zenith tropospheric delay minus the receiver model's (m), mapped as the model maps",
     )
+    iono_scale_std: float = Field(
+        0.25,
+        ge=0,
+        le=2,
+        description="standard deviation of iono_scale across runs: each run draws its own scale "
+        "(iono_scale + iono_scale_std N, at least 0), as days differ",
+    )
+    tropo_zenith_residual_std_m: float = Field(
+        0.03,
+        ge=0,
+        le=0.5,
+        description="standard deviation (m) of the zenith troposphere's residual across runs (each run its own "
+        "draw around tropo_zenith_residual_m; UNB3-class models leave a few cm, Collins 1999)",
+    )
+    orbit_clock_residual_std_m: float = Field(
+        0.6,
+        ge=0,
+        le=20,
+        description="SISRE (m): each satellite's broadcast orbit and clock error along its line of sight, one "
+        "Gaussian value per satellite and run, constant over the run (GPS broadcast SISRE is below 1 m, "
+        "Montenbruck et al. 2015); the signal carries it, the receiver's ephemeris does not",
+    )
 
     @field_validator("acquisition")
     @classmethod
@@ -146,7 +182,9 @@ class SampleReceiverCase(ScenarioParams):
     )
     satellites: int | None = Field(None, ge=4, le=12, description="satellites in this case (default: the scenario's)")
     atmosphere: bool | None = Field(
-        None, description="the atmosphere in this case (default: the scenario's; false: a labelled clean control)"
+        None,
+        description="the atmosphere and the orbit and clock errors in this case (default: the scenario's; "
+        "false: a labelled clean control)",
     )
 
 
@@ -307,15 +345,27 @@ class SampleReceiverScenario(Scenario):
             iono_fallback=None if atm is None else atm.iono_utc(),
         )
 
+    def run_plan(self, plan: SignalPlan, rng: np.random.Generator) -> SignalPlan:
+        """One run's recording: the case's ``plan`` with the run's own atmosphere and orbit
+        and clock errors drawn from ``rng`` (`Atmosphere.drawn`); a clean case's, or one
+        whose spreads are all 0, unchanged (its samples are then shared by the runs)."""
+        p = self.params
+        spreads = (p.iono_scale_std, p.tropo_zenith_residual_std_m, p.orbit_clock_residual_std_m)
+        if plan.atmosphere is None or not any(spreads):
+            return plan
+        return with_atmosphere(plan, plan.atmosphere.drawn(rng, len(plan.prns), *spreads))
+
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         noise = rng.child("samples")  # the same for every candidate: common random numbers
-        plan = self.plan(case)
+        errors = rng.child("errors")  # the run's atmosphere, orbits and clocks: the same for every candidate
+        case_plan = self.plan(case)
         t = self.time_s()
         per_run = []
         filters = candidate_filters(plugins, self.params)  # the channel filters built once for the batch
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-receiver-") as tmp:
             for r in range(runs):  # one recording and one receiver per run
+                plan = self.run_plan(case_plan, errors.generators[r])
                 path = write_run_recording(plan, noise.generators[r], Path(tmp) / f"run{r}.{SAMPLE_FORMAT}")
                 result = self.receive(plan, plugins, path, filters)
                 per_run.append(run_series(result, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, t))

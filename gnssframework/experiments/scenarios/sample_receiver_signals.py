@@ -21,7 +21,7 @@ samples in the same run (common random numbers).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +44,7 @@ __all__ = [
     "nominal_ephemerides",
     "signal_plan",
     "noise_free_samples",
+    "with_atmosphere",
     "write_run_recording",
     "transmit_times",
     "CHUNK_S",
@@ -169,6 +170,10 @@ class Atmosphere:
     iono_beta: tuple[float, float, float, float]
     iono_scale: float
     tropo_zenith_residual_m: float
+    #: Each satellite's broadcast orbit and clock error along its line of sight (m, the
+    #: plan's satellites in order; empty: none): the signal comes that much later than the
+    #: broadcast ephemeris the receiver uses says, on code and carrier alike.
+    orbit_clock_m: tuple[float, ...] = ()
 
     def iono_utc(self) -> lnav.IonoUtc:
         """The coefficients as the receiver's fallback (`receive(..., iono_fallback=...)`)."""
@@ -188,7 +193,24 @@ class Atmosphere:
         )
         sin_e = np.sin(np.radians(np.maximum(el, 1.0)))
         tropo = troposphere_delay_m(lat, h, el) + self.tropo_zenith_residual_m / sin_e
-        return tropo + iono, tropo - iono
+        common = tropo + (np.asarray(self.orbit_clock_m, float) if self.orbit_clock_m else 0.0)
+        return common + iono, common - iono
+
+    def drawn(
+        self, rng: np.random.Generator, satellites: int, iono_scale_std: float, tropo_std_m: float, sisre_m: float
+    ) -> Atmosphere:
+        """One run's atmosphere and orbit and clock errors, drawn around this case's: the
+        ionosphere's scale ``iono_scale + iono_scale_std N`` (at least 0), the zenith
+        troposphere's residual ``tropo_zenith_residual_m + tropo_std_m N``, and each of the
+        ``satellites`` satellites' orbit and clock error ``sisre_m N`` (N independent
+        standard normal draws from ``rng``, in that order)."""
+        z = rng.standard_normal(2 + satellites)
+        return replace(
+            self,
+            iono_scale=max(0.0, self.iono_scale + iono_scale_std * float(z[0])),
+            tropo_zenith_residual_m=self.tropo_zenith_residual_m + tropo_std_m * float(z[1]),
+            orbit_clock_m=tuple(float(v) for v in sisre_m * z[2:]),
+        )
 
 
 @dataclass(frozen=True)
@@ -280,6 +302,12 @@ def signal_plan(
         atmosphere,
         key,
     )
+
+
+def with_atmosphere(plan: SignalPlan, atmosphere: Atmosphere) -> SignalPlan:
+    """``plan`` with another atmosphere (one run's), and the key its samples are cached by."""
+    key = tuple((k, atmosphere if k == "atmosphere" else v) for k, v in plan.key)
+    return replace(plan, atmosphere=atmosphere, key=key)
 
 
 def noise_free_samples(plan: SignalPlan) -> np.ndarray:
