@@ -368,6 +368,8 @@ class ComparisonConfig(_Strict):
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)
+        if scenario.revision:  # the scenario's numbers changed since revision 0: a store of before is another
+            data["scenario_revision"] = scenario.revision
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 

@@ -84,7 +84,11 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
                 previous = json.loads((out / "config.json").read_text())
             except (OSError, ValueError):
                 previous = {}
-            what = ", ".join(_differences(previous, current)) or "its identity"
+            what = (
+                ", ".join(_differences(previous, current))
+                or "its identity: nothing written differs, so the scenario's code changed the numbers since "
+                "(its revision)"
+            )
             name = previous.get("name", "another comparison")
             raise ConfigError(
                 "out",

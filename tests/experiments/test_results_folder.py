@@ -248,3 +248,25 @@ def test_a_failure_names_the_candidate_case_runs_and_sweep_point(tmp_path, faili
         "step 7: innovation covariance is not positive definite"
     )
     assert err.value.cause == "NumericalError"
+
+
+def test_a_scenario_revision_makes_an_old_store_another_configuration(tmp_path, monkeypatch):
+    """A scenario whose code or defaults changed its numbers raises its ``revision``: a
+    store written before is refused in one line saying so, never read with the old
+    numbers; revision 0 leaves every identity as it was."""
+    from gnssframework.experiments.folder import claim_folder
+    from gnssframework.experiments.scenarios.carrier_smoothing import CarrierSmoothingScenario
+
+    (tmp_path / "c.toml").write_text(SMOOTH.format(runs=2, seed=1))
+    config = load_config(tmp_path / "c.toml")
+    before = config.identity()
+    with claim_folder(tmp_path / "out", config):
+        pass
+    monkeypatch.setattr(CarrierSmoothingScenario, "revision", 1)
+    after = load_config(tmp_path / "c.toml")
+    assert after.identity() != before
+    with pytest.raises(ConfigError, match="nothing written differs, so the scenario's code changed the numbers"):
+        with claim_folder(tmp_path / "out", after):
+            pass
+    monkeypatch.setattr(CarrierSmoothingScenario, "revision", 0)
+    assert load_config(tmp_path / "c.toml").identity() == before

@@ -59,6 +59,11 @@ class Scenario(abc.ABC):
     #: What a candidate's ``scenario_options`` may set: options of the scenario that apply to
     #: one candidate and are not plugins (``multipath``'s oracle). Default: none.
     CandidateOptions: ClassVar[type[ScenarioParams]] = NoCandidateOptions
+    #: Revision of the numbers the scenario gives a config: raised when its code or a
+    #: default changes them, so that a result store written before holds "another
+    #: configuration" (refused) instead of answering with the old numbers
+    #: (`ComparisonConfig.identity`; 0, the first, leaves the identity as it was).
+    revision: ClassVar[int] = 0
 
     def __init__(self, params: ScenarioParams) -> None:
         self.params = params
