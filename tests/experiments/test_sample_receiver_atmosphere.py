@@ -55,6 +55,16 @@ def _fix(plan, *, models: bool, t_after_s: float = 3.0):
     return np.asarray(fix.position_ecef_m) - rx, sat, t_rx
 
 
+def _wls_mapping(plan, sat, el_deg, residual_m):
+    """The position change (m, ECEF) a weighted least-squares fix makes of range errors
+    ``residual_m``: (G^T W G)^-1 G^T W with W = sin^2(E), the solver's weighting."""
+    rx = np.array(plan.receiver_ecef_m)
+    u = (sat - rx) / np.linalg.norm(sat - rx, axis=1, keepdims=True)
+    G = np.hstack([-u, np.ones((u.shape[0], 1))])
+    W = np.diag(np.sin(np.radians(el_deg)) ** 2)
+    return np.linalg.solve(G.T @ W @ G, G.T @ W @ residual_m)[:3]
+
+
 def test_the_receivers_models_remove_an_atmosphere_that_is_exactly_theirs():
     plan = _plan(iono_scale=1.0, tropo_zenith_residual_m=0.0)
     error, _, _ = _fix(plan, models=True)
@@ -82,11 +92,7 @@ def test_what_the_models_leave_moves_the_fix_by_its_least_squares_mapping():
     iono_m = (code_m - carrier_m) / 2
     az, el, _ = pymap3d.ecef2aer(sat[:, 0], sat[:, 1], sat[:, 2], lat, lon, h)
     residual = iono_m * (1 - 1 / atm.iono_scale) + atm.tropo_zenith_residual_m / np.sin(np.radians(el))
-    rx = np.array(plan.receiver_ecef_m)
-    u = (sat - rx) / np.linalg.norm(sat - rx, axis=1, keepdims=True)
-    G = np.hstack([-u, np.ones((u.shape[0], 1))])
-    W = np.diag(np.sin(np.radians(el)) ** 2)
-    predicted = np.linalg.solve(G.T @ W @ G, G.T @ W @ residual)[:3]
+    predicted = _wls_mapping(plan, sat, el, residual)
     np.testing.assert_allclose(error, predicted, atol=ROUNDING_M)
     assert np.linalg.norm(predicted) > 0.3  # a residual worth testing: decimetres
 
@@ -151,11 +157,7 @@ def test_orbit_and_clock_errors_move_the_fix_by_their_least_squares_mapping():
     error, sat, _ = _fix(plan, models=True)
     lat, lon, h = plan.receiver_lat_lon_h
     _, el, _ = pymap3d.ecef2aer(sat[:, 0], sat[:, 1], sat[:, 2], lat, lon, h)
-    rx = np.array(plan.receiver_ecef_m)
-    u = (sat - rx) / np.linalg.norm(sat - rx, axis=1, keepdims=True)
-    G = np.hstack([-u, np.ones((u.shape[0], 1))])
-    W = np.diag(np.sin(np.radians(el)) ** 2)
-    predicted = np.linalg.solve(G.T @ W @ G, G.T @ W @ bias)[:3]
+    predicted = _wls_mapping(plan, sat, el, bias)
     np.testing.assert_allclose(error, predicted, atol=ROUNDING_M)
     assert np.linalg.norm(predicted) > 0.5
 

@@ -9,28 +9,13 @@ import pytest
 from gnssframework.errors import ConfigError
 from gnssframework.experiments.config import ComparisonConfig
 from gnssframework.experiments.sweeps import refined_values
+from tests.threshold_configs import constructed, tiny_threshold
 
 
-def _config(refine=None, values=(20.0, 25.0, 30.0, 35.0), threshold=True, candidates=("a", "b")):
-    sweep = {"name": "cn0", "path": "cases.cn0_dbhz", "values": list(values)}
-    if threshold:
-        sweep["threshold"] = {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 300}
-    if refine is not None:
-        sweep["refine"] = refine
-    filters = {"a": "scalar", "b": "kf-carrier-loop", "c": "scalar"}
-    return ComparisonConfig.model_validate(
-        {
-            "name": "t",
-            "runs": 40,
-            "batch_size": 40,
-            "seed": 4,
-            "reference": "a",
-            "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
-            "cases": [{"name": "c", "cn0_dbhz": 30.0}],
-            "candidates": [{"name": n, "channel_filter": filters[n]} for n in candidates],
-            "sweeps": [sweep],
-        }
-    )
+def _config(refine=None, threshold=True):
+    spec = {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 300} if threshold else None
+    sweep = {} if refine is None else {"refine": refine}
+    return ComparisonConfig.model_validate(constructed(threshold=spec, **sweep))
 
 
 class _Store:
@@ -92,30 +77,8 @@ def test_a_comparison_runs_the_added_points_for_every_candidate_and_resumes(tmp_
     the same points."""
     from gnssframework.experiments.runner import run_comparison
 
-    config = ComparisonConfig.model_validate(
-        {
-            "name": "tiny-refine",
-            "runs": 8,
-            "batch_size": 8,
-            "seed": 3,
-            "reference": "wide",
-            "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
-            "cases": [{"name": "static", "cn0_dbhz": 30.0}],
-            "candidates": [
-                {"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
-                {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}},
-            ],
-            "sweeps": [
-                {
-                    "name": "cn0",
-                    "path": "cases.cn0_dbhz",
-                    "values": [15.0, 30.0, 45.0],
-                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 200},
-                    "refine": {"step": 2.5},
-                }
-            ],
-        }
-    )
+    threshold = {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 200}
+    config = ComparisonConfig.model_validate(tiny_threshold(threshold, refine={"step": 2.5}))
     batches = []
     summary = json.loads(run_comparison(config, tmp_path / "out", progress=False, on_batch=batches.append).read_text())
     sweep = summary["sweeps"][0]

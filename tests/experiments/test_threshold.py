@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments.threshold import bootstrap_thresholds, crossing, wilson
+from tests.threshold_configs import constructed, tiny_threshold
 
 
 def test_crossing_interpolates_from_the_top_and_marks_out_of_grid_curves():
@@ -67,30 +68,8 @@ class _Store:
 def _config(claims, fit="linear"):
     from gnssframework.experiments.config import ComparisonConfig
 
-    return ComparisonConfig.model_validate(
-        {
-            "name": "t",
-            "runs": 40,
-            "batch_size": 40,
-            "seed": 4,
-            "reference": "a",
-            "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
-            "cases": [{"name": "c", "cn0_dbhz": 30.0}],
-            "candidates": [
-                {"name": "a", "channel_filter": "scalar"},
-                {"name": "b", "channel_filter": "kf-carrier-loop"},
-            ],
-            "sweeps": [
-                {
-                    "name": "cn0",
-                    "path": "cases.cn0_dbhz",
-                    "values": [20.0, 25.0, 30.0, 35.0],
-                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500, "fit": fit},
-                }
-            ],
-            "claims": claims,
-        }
-    )
+    threshold = {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500, "fit": fit}
+    return ComparisonConfig.model_validate(constructed(threshold=threshold, claims=claims))
 
 
 def _claim(**judgement):
@@ -204,43 +183,16 @@ def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
     from gnssframework.experiments.config import ComparisonConfig
     from gnssframework.experiments.runner import run_comparison
 
+    threshold = {
+        "metric": "loss_of_lock",
+        "level": 0.5,
+        "bootstrap": 200,
+        "time_metric": "time_to_loss_s",
+        "plot_metrics": ["cycle_slip_rate"],
+    }
+    claim = {"candidate": "narrow", "reference": "wide", "metric": "loss_of_lock", "sweep": "cn0"}
     config = ComparisonConfig.model_validate(
-        {
-            "name": "tiny-threshold",
-            "runs": 8,
-            "batch_size": 8,
-            "seed": 3,
-            "reference": "wide",
-            "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
-            "cases": [{"name": "static", "cn0_dbhz": 30.0}],
-            "candidates": [
-                {"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
-                {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}},
-            ],
-            "sweeps": [
-                {
-                    "name": "cn0",
-                    "path": "cases.cn0_dbhz",
-                    "values": [15.0, 30.0, 45.0],
-                    "threshold": {
-                        "metric": "loss_of_lock",
-                        "level": 0.5,
-                        "bootstrap": 200,
-                        "time_metric": "time_to_loss_s",
-                        "plot_metrics": ["cycle_slip_rate"],
-                    },
-                }
-            ],
-            "claims": [
-                {
-                    "candidate": "narrow",
-                    "reference": "wide",
-                    "metric": "loss_of_lock",
-                    "sweep": "cn0",
-                    "threshold_difference": [-20.0, 20.0],
-                }
-            ],
-        }
+        tiny_threshold(threshold) | {"claims": [claim | {"threshold_difference": [-20.0, 20.0]}]}
     )
     summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
     thr = summary["sweeps"][0]["threshold"]
@@ -267,33 +219,12 @@ class _CaseStore(_Store):
 def _two_case_config(claims):
     from gnssframework.experiments.config import ComparisonConfig
 
-    return ComparisonConfig.model_validate(
-        {
-            "name": "t",
-            "runs": 40,
-            "batch_size": 40,
-            "seed": 4,
-            "reference": "a",
-            "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
-            "cases": [
-                {"name": "one", "cn0_dbhz": 30.0},
-                {"name": "three", "cn0_dbhz": 30.0, "streams": "one", "cn0_lock_consecutive": 3},
-            ],
-            "candidates": [
-                {"name": "a", "channel_filter": "scalar"},
-                {"name": "b", "channel_filter": "kf-carrier-loop"},
-            ],
-            "sweeps": [
-                {
-                    "name": "cn0",
-                    "path": "cases.cn0_dbhz",
-                    "values": [20.0, 25.0, 30.0, 35.0],
-                    "threshold": {"metric": "loss_of_lock_by_cn0", "level": 0.5, "bootstrap": 500},
-                }
-            ],
-            "claims": claims,
-        }
-    )
+    cases = [
+        {"name": "one", "cn0_dbhz": 30.0},
+        {"name": "three", "cn0_dbhz": 30.0, "streams": "one", "cn0_lock_consecutive": 3},
+    ]
+    threshold = {"metric": "loss_of_lock_by_cn0", "level": 0.5, "bootstrap": 500}
+    return ComparisonConfig.model_validate(constructed(threshold=threshold, cases=cases, claims=claims))
 
 
 def test_threshold_claims_between_cases_pair_the_same_runs():
