@@ -67,6 +67,7 @@ EXAMPLES = (
     "deep_integration_realistic_ci",
     "deep_integration_threshold_ci",
     "scintillation_rate_lock",
+    "deep_integration_budget_ins_straight_ci",
 )
 #: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
 #: results/<name>/): this script only draws their figures and writes their tables, after those
@@ -95,6 +96,7 @@ CI_COST_S = {
     "scintillation_rate_lock": 40,
     "tracking_threshold": 43,
     "tracking_threshold_cn0_lock": 20,
+    "deep_integration_budget_ins_straight_ci": 35,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
     "tracking_threshold_oscillator_tuned": 40,
@@ -201,6 +203,14 @@ TABLES["deep_integration_error_sources_ci"] = [
     "nees",
 ]
 TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
+# Issue 42: the IMU's calibration states in a straight flight.
+TABLES["deep_integration_budget_ins_straight_ci"] = [
+    "horizontal_position_error_rmse",
+    "height_error_rmse",
+    "horizontal_velocity_error_rmse",
+    "vertical_velocity_error_rmse",
+    "nees",
+]
 # Reference 004 (docs/experiments/multipath.md): its cases' tables and its psi sweep's
 # (written to multipath_sweep.md: an example in both lists gets <name>_sweep.md for its sweeps).
 _MULTIPATH_TABLE = [
