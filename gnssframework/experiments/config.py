@@ -294,7 +294,7 @@ class ComparisonConfig(_Strict):
 
     def sweep_points(self, index: int) -> list[tuple[Any, ComparisonConfig]]:
         """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``),
-        the points its refinement added (`set_refinement`) among them, in order."""
+        the points its refinement added (`with_refinement`) among them, in order."""
         if index not in self._points:
             self._points[index] = expand_sweep(self, index)
         return self._points[index]
@@ -303,10 +303,14 @@ class ComparisonConfig(_Strict):
         """The points added to ``sweeps[index]``'s grid by its ``refine`` table (none yet: [])."""
         return list(self._refined.get(index, []))
 
-    def set_refinement(self, index: int, values: list[float]) -> None:
-        """Add ``values`` (`sweeps.refined_values`) to ``sweeps[index]``'s points."""
-        self._refined[index] = [float(v) for v in values]
-        self._points[index] = expand_sweep(self, index)
+    def with_refinement(self, index: int, values: list[float]) -> ComparisonConfig:
+        """This config with ``values`` (`sweeps.refined_values`) added to ``sweeps[index]``'s
+        points (a copy: this one is left as it is)."""
+        other = self.model_copy()
+        other._refined = {**self._refined, index: [float(v) for v in values]}
+        other._points = {k: v for k, v in self._points.items() if k != index}
+        other._points[index] = expand_sweep(other, index)
+        return other
 
     @property
     def reference_name(self) -> str:

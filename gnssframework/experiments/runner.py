@@ -421,9 +421,9 @@ def run_comparison(
         for i, sweep in enumerate(config.sweeps):
             if sweep.refine is not None and not config.refinement(i):
                 values = refined_values(config, store, i)
-                config.set_refinement(i, values)
+                config = config.with_refinement(i, values)
                 if replica is not None:
-                    replica.set_refinement(i, values)
+                    replica = replica.with_refinement(i, values)
                 refined = refined or bool(values)
         if refined:
             _run_points(config, replica, store, out, progress, on_batch)

@@ -42,7 +42,8 @@ Once the grid's runs are in, each case's and candidate's threshold is read off t
 (the sweep's own ``threshold`` reading), and every grid cell its bootstrap interval
 reaches gets a point every ``refine.step`` (`refined_values`); those points then run like
 the grid's (every case and candidate, the same runs) and the sweep's tables, threshold
-and claims use grid and added points together. The added points follow from the seed, so
+and threshold claims use grid and added points together (a claim at named points, or at
+every point, names the grid's). The added points follow from the seed, so
 a resumed comparison adds the same ones; more than ``refine.max_points`` is refused. A
 sweep over the same grid without ``refine`` keeps the grid-only reading beside it (its
 points are the same runs).

@@ -42,12 +42,14 @@ def test_points_fill_the_cells_each_threshold_interval_reaches():
     assert added == [21.0, 22.0, 23.0, 24.0, 26.0, 27.0, 28.0, 29.0, 31.0, 32.0, 33.0, 34.0]
     # added to the sweep's points, in order; the grid's points keep their identities
     grid = {v: p.identity() for v, p in config.sweep_points(0)}
-    config.set_refinement(0, added)
-    points = config.sweep_points(0)
+    refined = config.with_refinement(0, added)
+    points = refined.sweep_points(0)
     assert [v for v, _ in points] == sorted([*grid, *added])
     assert all(p.identity() == grid[v] for v, p in points if v in grid)
     assert len({p.identity() for _, p in points}) == len(points)
-    assert config.refinement(0) == added
+    assert refined.refinement(0) == added
+    # the config refined is a copy: the one it came from keeps its grid
+    assert config.refinement(0) == [] and [v for v, _ in config.sweep_points(0)] == list(grid)
 
 
 def test_a_threshold_beyond_the_grid_adds_nothing_and_too_many_points_are_refused():
@@ -96,9 +98,10 @@ def test_a_comparison_runs_the_added_points_for_every_candidate_and_resumes(tmp_
     for row in thr["cases"][0]["rows"]:
         assert len(row["curve"]) == len(sweep["values"]) and all(c is not None for c in row["curve"])
     assert "Refined: " in (tmp_path / "out" / "report.md").read_text()
-    # the same command again: nothing runs, the same points are added
+    # the same command again: nothing runs, the same points are added (the config passed in
+    # was not changed by the first run: it is refined again from the store)
+    assert config.refinement(0) == []
     again = []
-    fresh = ComparisonConfig.model_validate(config.model_dump(mode="json", exclude_none=True))
-    summary2 = json.loads(run_comparison(fresh, tmp_path / "out", progress=False, on_batch=again.append).read_text())
+    summary2 = json.loads(run_comparison(config, tmp_path / "out", progress=False, on_batch=again.append).read_text())
     assert again == [] and summary2["sweeps"][0]["refined"] == added
     assert summary2["sweeps"][0]["threshold"] == thr
