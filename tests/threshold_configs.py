@@ -53,3 +53,27 @@ def constructed(
         "sweeps": [spec],
         "claims": list(claims),
     }
+
+
+class OutcomeStore:
+    """A result store holding given per-run outcomes, what `threshold_rows` and the claims
+    read: ``outcomes[candidate][value]`` ``(runs,)`` for sweep 0 of ``config``, the same in
+    every case; `CaseOutcomeStore` by case."""
+
+    def __init__(self, config, outcomes):
+        self.by_key = {point.identity(): value for value, point in config.sweep_points(0)}
+        self.outcomes = outcomes
+
+    def run_values(self, key, case, candidate, metric, runs):
+        v = self._outcomes(case)[candidate][self.by_key[key]]
+        return {r: float(v[r]) for r in range(runs)}
+
+    def _outcomes(self, case):
+        return self.outcomes
+
+
+class CaseOutcomeStore(OutcomeStore):
+    """`OutcomeStore` with ``outcomes[case][candidate][value]``."""
+
+    def _outcomes(self, case):
+        return self.outcomes[case]

@@ -9,25 +9,13 @@ import pytest
 from gnssframework.errors import ConfigError
 from gnssframework.experiments.config import ComparisonConfig
 from gnssframework.experiments.sweeps import refined_values
-from tests.threshold_configs import constructed, tiny_threshold
+from tests.threshold_configs import OutcomeStore, constructed, tiny_threshold
 
 
 def _config(refine=None, threshold=True):
     spec = {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 300} if threshold else None
     sweep = {} if refine is None else {"refine": refine}
     return ComparisonConfig.model_validate(constructed(threshold=spec, **sweep))
-
-
-class _Store:
-    """Per-run outcomes by candidate and swept value (what `threshold_rows` reads)."""
-
-    def __init__(self, config, outcomes):
-        self.by_key = {point.identity(): value for value, point in config.sweep_points(0)}
-        self.outcomes = outcomes
-
-    def run_values(self, key, case, candidate, metric, runs):
-        v = self.outcomes[candidate][self.by_key[key]]
-        return {r: float(v[r]) for r in range(runs)}
 
 
 def test_points_fill_the_cells_each_threshold_interval_reaches():
@@ -38,7 +26,7 @@ def test_points_fill_the_cells_each_threshold_interval_reaches():
     # width at 22.5, the cell [20, 25])
     a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: (u < 0.5) * 1.0, 35.0: np.zeros(40)}
     b = {20.0: np.ones(40), 25.0: np.zeros(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}
-    added = refined_values(config, _Store(config, {"a": a, "b": b}), 0)
+    added = refined_values(config, OutcomeStore(config, {"a": a, "b": b}), 0)
     assert added == [21.0, 22.0, 23.0, 24.0, 26.0, 27.0, 28.0, 29.0, 31.0, 32.0, 33.0, 34.0]
     # added to the sweep's points, in order; the grid's points keep their identities
     grid = {v: p.identity() for v, p in config.sweep_points(0)}
@@ -56,11 +44,11 @@ def test_a_threshold_beyond_the_grid_adds_nothing_and_too_many_points_are_refuse
     config = _config(refine={"step": 1.0})
     never = {v: np.zeros(40) for v in (20.0, 25.0, 30.0, 35.0)}
     always = {v: np.ones(40) for v in (20.0, 25.0, 30.0, 35.0)}
-    assert refined_values(config, _Store(config, {"a": never, "b": always}), 0) == []
+    assert refined_values(config, OutcomeStore(config, {"a": never, "b": always}), 0) == []
     tight = _config(refine={"step": 0.5, "max_points": 5})
     a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}
     with pytest.raises(ConfigError, match=r"sweeps\[0\].refine: 9 points .* exceed max_points = 5"):
-        refined_values(tight, _Store(tight, {"a": a, "b": a}), 0)
+        refined_values(tight, OutcomeStore(tight, {"a": a, "b": a}), 0)
 
 
 def test_refine_needs_a_threshold_and_a_step_below_the_grid_spacing():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments.threshold import bootstrap_thresholds, crossing, wilson
-from tests.threshold_configs import constructed, tiny_threshold
+from tests.threshold_configs import CaseOutcomeStore, OutcomeStore, constructed, tiny_threshold
 
 
 def test_crossing_interpolates_from_the_top_and_marks_out_of_grid_curves():
@@ -53,18 +53,6 @@ def test_paired_bootstrap_interval_covers_a_known_threshold():
     assert np.all(d < 0)
 
 
-class _Store:
-    """A result store holding given per-run outcomes (what `threshold_rows` reads)."""
-
-    def __init__(self, config, outcomes):
-        self.by_key = {point.identity(): value for value, point in config.sweep_points(0)}
-        self.outcomes = outcomes
-
-    def run_values(self, key, case, candidate, metric, runs):
-        v = self.outcomes[candidate][self.by_key[key]]
-        return {r: float(v[r]) for r in range(runs)}
-
-
 def _config(claims, fit="linear"):
     from gnssframework.experiments.config import ComparisonConfig
 
@@ -92,7 +80,7 @@ def test_threshold_claims_are_checked_from_the_paired_bootstrap():
     # a: lost below 30 (every run at 20, 25; at 30 the runs with u < 0.2); b: 5 dB better
     a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: (u < 0.2) * 1.0, 35.0: np.zeros(40)}
     b = {20.0: np.ones(40), 25.0: (u < 0.2) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
-    rows = evaluate_claims(config, _Store(config, {"a": a, "b": b}))
+    rows = evaluate_claims(config, OutcomeStore(config, {"a": a, "b": b}))
     # both crossings interpolate from 1.0 to p = mean(u < 0.2) over 5 dB on the same runs: in
     # every paired resample the difference is exactly -5 dB, so [-4.9, -4.8] fails
     assert [r["outcome"] for r in rows] == ["holds", "holds", "fails", "fails"]
@@ -116,7 +104,7 @@ def test_fitted_thresholds_reach_the_claims_and_the_report():
     u = np.random.default_rng(0).random(40)
     a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}
     b = {20.0: np.ones(40), 25.0: (u < 0.5) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
-    store = _Store(config, {"a": a, "b": b})
+    store = OutcomeStore(config, {"a": a, "b": b})
     report = threshold_rows(config, store, 0)
     rows = {r["candidate"]: r for r in report["cases"][0]["rows"]}
     assert report["fit"] == "logistic"
@@ -142,7 +130,7 @@ def test_the_best_link_reaches_the_report_and_the_plot(tmp_path):
     # a: a Gumbel-like fall (fast from 1, slow to 0); b: shifted down by 5 dB
     a = {20.0: (u[0] < 0.99) * 1.0, 25.0: (u[1] < 0.6) * 1.0, 30.0: (u[2] < 0.25) * 1.0, 35.0: (u[3] < 0.1) * 1.0}
     b = {20.0: (u[0] < 0.6) * 1.0, 25.0: (u[1] < 0.25) * 1.0, 30.0: (u[2] < 0.1) * 1.0, 35.0: (u[3] < 0.04) * 1.0}
-    report = threshold_rows(config, _Store(config, {"a": a, "b": b}), 0)
+    report = threshold_rows(config, OutcomeStore(config, {"a": a, "b": b}), 0)
     for row in report["cases"][0]["rows"]:
         fit = row["fit"]
         assert fit["link"] in LINKS and set(fit["deviances"]) == set(LINKS)
@@ -208,14 +196,6 @@ def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
     assert [c["outcome"] for c in summary["claims"]] == ["holds"]
 
 
-class _CaseStore(_Store):
-    """Outcomes by case, candidate and swept value."""
-
-    def run_values(self, key, case, candidate, metric, runs):
-        v = self.outcomes[case][candidate][self.by_key[key]]
-        return {r: float(v[r]) for r in range(runs)}
-
-
 def _two_case_config(claims):
     from gnssframework.experiments.config import ComparisonConfig
 
@@ -246,7 +226,7 @@ def test_threshold_claims_between_cases_pair_the_same_runs():
     one = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: (u < 0.6) * 1.0, 35.0: np.zeros(40)}
     three = {20.0: np.ones(40), 25.0: (u < 0.6) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
     low = {20.0: np.ones(40), 25.0: np.zeros(40), 30.0: np.zeros(40), 35.0: np.zeros(40)}  # crosses at 22.5
-    store = _CaseStore(config, {"one": {"a": one, "b": low}, "three": {"a": three, "b": low}})
+    store = CaseOutcomeStore(config, {"one": {"a": one, "b": low}, "three": {"a": three, "b": low}})
     rows = evaluate_claims(config, store)
     assert [r["outcome"] for r in rows] == ["holds", "fails", "holds"]
     assert rows[0]["threshold_difference"] == pytest.approx(-5.0)
