@@ -196,3 +196,30 @@ def test_each_run_draws_its_own_errors_from_its_own_stream():
     )
     fixed = still.plan(CASE)
     assert still.run_plan(fixed, np.random.default_rng(0)) is fixed
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("iono_scale_std", -0.1), ("iono_scale_std", 3.0), ("tropo_zenith_residual_std_m", 0.6)]
+    + [("orbit_clock_residual_std_m", -1.0), ("orbit_clock_residual_std_m", 25.0)],
+)
+def test_a_spread_outside_its_bounds_is_refused_naming_the_field(tmp_path, field, value):
+    from gnssframework.errors import ConfigError
+    from gnssframework.experiments import load_config
+
+    (tmp_path / "c.toml").write_text(
+        f"""name = "t"
+runs = 1
+[scenario]
+kind = "sample-receiver"
+{field} = {value}
+[[cases]]
+name = "45"
+cn0_dbhz = 45.0
+[[candidates]]
+name = "a"
+channel_filter = "scalar"
+"""
+    )
+    with pytest.raises(ConfigError, match=f"scenario.{field}"):
+        load_config(tmp_path / "c.toml")

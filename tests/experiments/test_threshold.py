@@ -266,3 +266,22 @@ def test_threshold_claims_between_cases_are_refused_where_they_cannot_be_read():
                 }
             ]
         )
+
+
+def test_a_threshold_difference_between_cases_of_other_runs_is_refused():
+    """Two cases whose common runs differ cannot pair resample by resample: refused."""
+    from gnssframework.experiments.threshold import difference_interval, threshold_rows
+
+    config = _two_case_config([])
+    u = np.random.default_rng(0).random(40)
+    curve = {20.0: np.ones(40), 25.0: (u < 0.6) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
+
+    class _Fewer(CaseOutcomeStore):
+        def run_values(self, key, case, candidate, metric, runs):
+            values = super().run_values(key, case, candidate, metric, runs)
+            return {r: v for r, v in values.items() if case == "one" or r < 30}  # case three: 30 runs
+
+    store = _Fewer(config, {"one": {"a": curve, "b": curve}, "three": {"a": curve, "b": curve}})
+    report = threshold_rows(config, store, 0)
+    with pytest.raises(ValueError, match="between cases 'three' and 'one': their runs differ \\(30 against 40"):
+        difference_interval(report, "three", "a", "a", "one")
