@@ -55,7 +55,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .stats import finite_or_none
 from .survival import exponential_mean_mle, kaplan_meier
-from .threshold_fit import LINKS, best_link_fit, deviance_test, deviances, firth_binomial, fitted_crossing
+from .threshold_fit import LINKS, best_link_fit, deviance_test, firth_binomial, fitted_crossing
 
 __all__ = [
     "Threshold",
@@ -209,7 +209,7 @@ def _fitted(
         "spread": curve.spread,
     }
     if link == "best":
-        report["deviances"] = {n: float(deviances(firth_binomial(x, k, runs, n), x, k, runs)) for n in LINKS}
+        report["deviances"] = {n: float(d) for n, d in curve.link_deviances.items()}
         report["resample_links"] = {n: float(np.mean(boot_fit.link == n)) for n in LINKS}
     return est, lo, hi, samples, report
 

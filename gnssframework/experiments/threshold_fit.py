@@ -132,6 +132,22 @@ def _log1mexp(a: np.ndarray) -> np.ndarray:
 
 _HALF_LOG_2PI = 0.5 * np.log(2 * np.pi)
 
+
+def _mirror(name: str, link: Link) -> Link:
+    r"""The link of the mirrored distribution, :math:`F_m(\eta) = 1 - F(-\eta)` (loglog of
+    cloglog): its logarithms are the original's with :math:`F` and :math:`1 - F` swapped at
+    :math:`-\eta`, so the tails stay as accurate as the original's."""
+    return Link(
+        name,
+        lambda e: np.exp(link.log_q(-e)),
+        lambda p: -link.quantile(1.0 - p),
+        lambda e: link.log_q(-e),
+        lambda e: link.log_p(-e),
+        lambda e: link.log_f(-e),
+        lambda e: -link.dlog_f(-e),
+    )
+
+
 LINKS: dict[str, Link] = {
     "logistic": Link(
         "logistic",
@@ -160,16 +176,8 @@ LINKS: dict[str, Link] = {
         lambda e: e - np.exp(e),
         lambda e: 1 - np.exp(e),
     ),
-    "loglog": Link(
-        "loglog",
-        lambda e: np.exp(-np.exp(-e)),
-        lambda p: float(-np.log(-np.log(p))),
-        lambda e: -np.exp(-e),
-        lambda e: _log1mexp(np.exp(-e)),
-        lambda e: -e - np.exp(-e),
-        lambda e: np.exp(-e) - 1,
-    ),
 }
+LINKS["loglog"] = _mirror("loglog", LINKS["cloglog"])
 
 
 class BinomialFit:
@@ -196,6 +204,8 @@ class BinomialFit:
         self.steps = steps
         self.converged = converged
         self.link = link  # a link's name, or (...) names per curve
+        #: with `best_link_fit`: every link's deviance per curve, ``{name: (...)}``
+        self.link_deviances: dict[str, np.ndarray] = {}
 
     def _links(self) -> list[tuple[str, np.ndarray | None]]:
         """Each link with the mask of the curves it holds (None: all)."""
@@ -331,7 +341,7 @@ def _newton_step(
     # minus the Hessian, symmetrised: (a, b, c)
     neg = np.stack([-cols[0][..., 0], -0.5 * (cols[0][..., 1] + cols[1][..., 0]), -cols[1][..., 1]], axis=-1)
     definite = (neg[..., 0] > 0) & (neg[..., 0] * neg[..., 2] - neg[..., 1] ** 2 > 0)
-    step = np.where(definite[..., None], _solve(np.where(definite[..., None], neg, info), score), _solve(info, score))
+    step = _solve(np.where(definite[..., None], neg, info), score)
     big = np.max(np.abs(step), axis=-1, keepdims=True)
     return np.where(big > MAX_STEP, step * (MAX_STEP / np.maximum(big, MAX_STEP)), step)
 
@@ -353,13 +363,14 @@ def best_link_fit(
 ) -> BinomialFit:
     """Per curve, the Firth fit of the link (of ``links``) with the smallest deviance
     (every link has two parameters, so this is the likelihood's choice); ``link`` of the
-    result is an array of names ``(...)``, ``converged`` that of every link's fit."""
+    result is an array of names ``(...)``, ``converged`` that of every link's fit,
+    ``link_deviances`` every link's deviances."""
     fits = [firth_binomial(x, events, trials, name) for name in links]
     dev = np.stack([deviances(f, x, events, trials) for f in fits])  # (links, ...)
     choice = np.argmin(dev, axis=0)
     beta = np.take_along_axis(np.stack([f.beta for f in fits]), choice[None, ..., None], axis=0)[0]
     names = np.asarray(links, dtype=object)[choice]
-    return BinomialFit(
+    best = BinomialFit(
         beta,
         fits[0].centre,
         fits[0].spread,
@@ -367,6 +378,8 @@ def best_link_fit(
         all(f.converged for f in fits),
         names if choice.ndim else str(names),
     )
+    best.link_deviances = dict(zip(links, dev))
+    return best
 
 
 def fitted_crossing(fit: BinomialFit, x: np.ndarray, level: float) -> np.ndarray:
