@@ -181,15 +181,15 @@ def test_every_builtin_is_defined_in_one_module_and_named_in_no_other():
     files = sorted(p for d in CODE_DIRS for p in d.rglob("*.py"))
     trees = {p: ast.parse(p.read_text(encoding="utf-8")) for p in files}
     refs = {p: _references(t) for p, t in trees.items()}
+    homes: dict[str, list] = {}  # each class name's defining files, from one walk of every tree
+    for p, t in trees.items():
+        for n in ast.walk(t):
+            if isinstance(n, ast.ClassDef):
+                homes.setdefault(n.name, []).append(p)
     offenders = []
     for info in infos:
         home = _module_file(info.cls.__module__)
-        defined = [
-            p
-            for p, t in trees.items()
-            for n in ast.walk(t)
-            if isinstance(n, ast.ClassDef) and n.name == info.cls.__name__
-        ]
+        defined = homes.get(info.cls.__name__, [])
         assert defined == [home], f"{info.kind} {info.name!r}: class {info.cls.__name__} defined in {defined}"
         for path, (used, _) in refs.items():
             if path != home and info.cls.__name__ in used:  # a subclass's base in another module is fine
