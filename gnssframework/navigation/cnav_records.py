@@ -47,7 +47,7 @@ from .cnav import (
 from .ephemeris import Ephemerides
 from .lnav import URA_M, IonoUtc
 
-__all__ = ["cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S", "HEALTH_BIT"]
+__all__ = ["ura_ed_m", "cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S", "HEALTH_BIT"]
 
 #: GPS-UTC leap seconds taken where no type 33 message was decoded (as a RINEX header
 #: without LEAP SECONDS, `rinex_nav_header`).
@@ -58,7 +58,9 @@ _PI = np.pi  # IS-GPS-200's semicircle (the ICD's own value of pi)
 HEALTH_BIT = {"L2": 1, "L5": 0}
 
 
-def _ura_m(index: int) -> float:
+def ura_ed_m(index: int) -> float:
+    """The accuracy (m) of a URA_ED index: the LNAV URA table for 0-15, :math:`2^{1 + N/2}`
+    below 0 (IS-GPS-200 30.3.3.1.1.4)."""
     return float(URA_M[index]) if index >= 0 else float(2.0 ** (1 + index / 2))
 
 
@@ -97,6 +99,9 @@ def cnav_record(
         "ISC_L1CA": delays.isc_l1ca_s,
         "ISC_L2C": delays.isc_l2c_s,
         "ISC_L5I5": delays.isc_l5i5_s,
+        "CNAV": 1.0,
+        "Top": eph.top_s,
+        "HealthL1L2L5": eph.health_l1_l2_l5,
     }
     return Ephemerides(
         np.array([sv or f"G{eph.prn:02d}"]),
@@ -104,7 +109,7 @@ def cnav_record(
         {k: np.array([float(v)]) for k, v in elements.items()},
         np.array([float((eph.health_l1_l2_l5 >> HEALTH_BIT[band]) & 1)]),
         np.array([eph.toe_s / 300.0]),
-        np.array([_ura_m(eph.ura_ed_index)]),
+        np.array([ura_ed_m(eph.ura_ed_index)]),
     )
 
 

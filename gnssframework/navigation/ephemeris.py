@@ -138,14 +138,19 @@ CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
 #: Elements only a CNAV record has (`cnav_records`, IS-GPS-200 30.3.3.1 and 30.3.3.3.1.1):
 #: the rate of the semi-major axis ``Adot`` (m/s), the rate of the mean motion difference
 #: ``DeltaN0dot`` (rad/s^2) and the inter-signal corrections ``ISC_L1CA``, ``ISC_L2C`` and
-#: ``ISC_L5I5`` (s; IS-GPS-705 20.3.3.3.1.2); with the value that means "absent" in a record
-#: without them (an LNAV-style orbit, no ISC).
+#: ``ISC_L5I5`` (s; IS-GPS-705 20.3.3.3.1.2), and what a RINEX 4 CNAV record writes besides:
+#: ``CNAV`` 1 for a record from CNAV, ``Top`` (s of week) and ``HealthL1L2L5`` (the 3-bit
+#: health word of message type 10, L1 the high bit); with the value that means "absent" in a
+#: record without them (an LNAV-style orbit, no ISC).
 CNAV_FIELDS = {
     "Adot": 0.0,
     "DeltaN0dot": 0.0,
     "ISC_L1CA": float("nan"),
     "ISC_L2C": float("nan"),
     "ISC_L5I5": float("nan"),
+    "CNAV": 0.0,
+    "Top": float("nan"),
+    "HealthL1L2L5": float("nan"),
 }
 #: Elements only some Galileo records have: ``FNAV`` 1 where the record's clock is for the
 #: E1,E5a pair (F/NAV, RINEX data source bit 8; its ``TGD`` BGD(E1,E5a)), 0 for the E1,E5b
@@ -567,7 +572,8 @@ def _group_delay(letter: str, values: dict) -> np.ndarray:
 
 def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
     """Every complete ephemeris record of the ``systems`` (RINEX letters, ``"G"``,
-    ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex).
+    ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex), or a RINEX 4 one
+    (`rinex4_nav.read_rinex4_nav`: its GPS and QZSS CNAV records too).
 
     A Galileo record also holds ``elements["FNAV"]``: 1 where its clock is for E1,E5a (data
     source bit 8 without bit 9), 0 otherwise (`GALILEO_FIELDS`).
@@ -597,6 +603,10 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
+    from .rinex4_nav import is_rinex4, read_rinex4_nav
+
+    if is_rinex4(path):  # georinex reads RINEX 2 and 3 only
+        return read_rinex4_nav(path, systems)
     names = "/".join(_SYSTEM_NAMES[letter] for letter in systems)
     parts = []
     for letter in dict.fromkeys(systems):

@@ -155,7 +155,8 @@ def _header_ggto(path: Path) -> tuple[float, float, float, int] | None:
 
 
 def read_nav_file_info(path: str | Path) -> NavFileInfo:
-    """`NavFileInfo` of a RINEX 2 or 3 navigation file.
+    """`NavFileInfo` of a RINEX 2 or 3 navigation file, or of a RINEX 4 one
+    (`rinex4_nav.read_rinex4_info`).
 
     Raises
     ------
@@ -167,6 +168,10 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
+    from .rinex4_nav import is_rinex4, read_rinex4_info
+
+    if is_rinex4(path):  # its ionosphere and time offsets are records, not header lines
+        return read_rinex4_info(path)
     iono = _header_iono(path)
     try:
         times = np.asarray(georinex.gettime(path), dtype="datetime64[ns]")

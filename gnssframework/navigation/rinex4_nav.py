@@ -1,0 +1,402 @@
+r"""RINEX 4 navigation files: their records read into `ephemeris.Ephemerides` and their
+ionosphere and time-offset messages into a `rinex_nav_header.NavFileInfo`.
+
+RINEX 4.00 (IGS/RTCM-SC104, 2021; 4.01 and 4.02 keep the layouts read here) gives every
+record a line of its own before it, ``> EPH G01 LNAV``: the record type (``EPH``, ``ION``,
+``STO``, ``EOP``), the satellite that sent it and the message it came from. An ``EPH``
+record's lines are then those of RINEX 3 (a first line ``A3,1X,I4,5(1X,I2.2),3D19.12``,
+orbit lines ``4X,4D19.12``), one layout per message:
+
+======================== =============================================================
+message                  record
+======================== =============================================================
+GPS/QZSS ``LNAV``        RINEX 3's GPS record (IODE ... fit interval), tables A32/A38
+Galileo ``INAV``/``FNAV`` RINEX 3's Galileo record (IODnav ... BGDs, data sources), A35
+BeiDou ``D1``/``D2``     RINEX 3's BDS record (AODE ... TGD1, TGD2, AODC), A36
+GPS/QZSS ``CNAV``        ``Adot, Crs, Δn0, M0 / Cuc, e, Cus, √A / t_op, Cic, Ω0, Cis /
+                         i0, Crc, ω, Ω̇ / IDOT, Δṅ0, URAI_NED0, URAI_NED1 / URAI_ED,
+                         health, T_GD, URAI_NED2 / ISC_L1CA, ISC_L2C, ISC_L5I5,
+                         ISC_L5Q5 / t_tm, WN_op``, A33 (t_oe is the record's epoch t_oc)
+GPS/QZSS ``CNV2``        CNAV's, with ``ISC_L1Cd, ISC_L1Cp`` on a line before t_tm, A34
+======================== =============================================================
+
+A CNAV record's √A is that of :math:`A_{REF} + \Delta A` and its Ω̇ the full rate, as
+`cnav_records` assembles a decoded one; its health is the 3-bit L1/L2/L5 word (L1 the high
+bit: IS-GPS-200 30.3.3.1.1.2), of which a record read here keeps the bit of the band its user
+tracks (``cnav_band``: ``"L2"`` or ``"L5"``; the L1 bit for ``"L1"``); its accuracy the
+URA_ED index's metres and its issue of data :math:`t_{oe}/300`, as `cnav_records`. Records of
+other systems or messages (GLONASS ``FDMA``, SBAS, NavIC, BeiDou ``CNV1``-``CNV3``) are
+counted and left out.
+
+An ``ION`` record holds the coefficients the satellite broadcast at its epoch: GPS/QZSS
+``LNAV`` and BeiDou ``D1D2`` Klobuchar's α0-α3, β0-β3; Galileo ``IFNV`` NeQuick's ai0-ai2.
+An ``STO`` record a time offset ``A0, A1, A2`` at the reference time of its epoch (its
+second line ``t_tm, A0, A1, A2``), named as RINEX 3's ``TIME SYSTEM CORR`` (``GPUT``,
+``GAGP``, ``GAUT``, ``BDUT``). What a RINEX 3 header held once, the first of these records
+holds here (`read_rinex4_info`): the models a receiver would use at the file's start.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFileError
+from .bds_iono import BdsKlobuchar
+from .cnav_records import ura_ed_m
+from .ephemeris import (
+    CLOCK_FIELDS,
+    ORBIT_FIELDS,
+    SYSTEMS,
+    Ephemerides,
+    _group_delay,
+    _system_error,
+    gps_seconds_of_week,
+)
+from .lnav import IonoUtc
+
+__all__ = [
+    "Rinex4Record",
+    "EPH_LAYOUTS",
+    "is_rinex4",
+    "scan_rinex4_nav",
+    "read_rinex4_nav",
+    "records_to_ephemerides",
+]
+
+_LNAV = (
+    ("IODE", "Crs", "DeltaN", "M0"),
+    ("Cuc", "Eccentricity", "Cus", "sqrtA"),
+    ("Toe", "Cic", "Omega0", "Cis"),
+    ("Io", "Crc", "omega", "OmegaDot"),
+    ("IDOT", "CodesL2", "GPSWeek", "L2Pflag"),
+    ("SVacc", "health", "TGD", "IODC"),
+    ("TransTime", "FitIntvl"),
+)
+_GALILEO = (
+    ("IODnav", "Crs", "DeltaN", "M0"),
+    ("Cuc", "Eccentricity", "Cus", "sqrtA"),
+    ("Toe", "Cic", "Omega0", "Cis"),
+    ("Io", "Crc", "omega", "OmegaDot"),
+    ("IDOT", "DataSrc", "GALWeek", ""),
+    ("SISA", "health", "BGDe5a", "BGDe5b"),
+    ("TransTime",),
+)
+_BEIDOU = (
+    ("AODE", "Crs", "DeltaN", "M0"),
+    ("Cuc", "Eccentricity", "Cus", "sqrtA"),
+    ("Toe", "Cic", "Omega0", "Cis"),
+    ("Io", "Crc", "omega", "OmegaDot"),
+    ("IDOT", "", "BDTWeek", ""),
+    ("SVacc", "SatH1", "TGD1", "TGD2"),
+    ("TransTime", "AODC"),
+)
+_CNAV = (
+    ("Adot", "Crs", "DeltaN", "M0"),
+    ("Cuc", "Eccentricity", "Cus", "sqrtA"),
+    ("Top", "Cic", "Omega0", "Cis"),
+    ("Io", "Crc", "omega", "OmegaDot"),
+    ("IDOT", "DeltaN0dot", "URAI_NED0", "URAI_NED1"),
+    ("URAI_ED", "health", "TGD", "URAI_NED2"),
+    ("ISC_L1CA", "ISC_L2C", "ISC_L5I5", "ISC_L5Q5"),
+    ("TransTime", "WNop"),
+)
+_CNV2 = _CNAV[:7] + (("ISC_L1Cd", "ISC_L1Cp"), _CNAV[7])
+
+#: (system letter, message) -> the names of a record's orbit lines' fields, line by line
+#: ("" a spare), as the module text's table.
+EPH_LAYOUTS: dict[tuple[str, str], tuple[tuple[str, ...], ...]] = {
+    ("G", "LNAV"): _LNAV,
+    ("J", "LNAV"): _LNAV,
+    ("E", "INAV"): _GALILEO,
+    ("E", "FNAV"): _GALILEO,
+    ("C", "D1"): _BEIDOU,
+    ("C", "D2"): _BEIDOU,
+    ("G", "CNAV"): _CNAV,
+    ("J", "CNAV"): _CNAV,
+    ("G", "CNV2"): _CNV2,
+    ("J", "CNV2"): _CNV2,
+}
+#: The health word's bit of each band in a CNAV record (L1 the high bit).
+CNAV_HEALTH_BITS = {"L1": 2, "L2": 1, "L5": 0}
+#: A broadcast ISC's "not available" value (13-bit field 1000000000000 x 2^-35 s,
+#: IS-GPS-200 30.3.3.3.1.1): read as NaN.
+_ISC_ABSENT_S = -4096 * 2.0**-35
+
+
+@dataclass(frozen=True)
+class Rinex4Record:
+    """One record of a RINEX 4 navigation file as written: its type (``"EPH"``, ``"ION"``,
+    ``"STO"``, ``"EOP"``), satellite (``"G01"``; ``"E"`` where only the system is named),
+    message (``"LNAV"``), epoch (calendar, in the record's system time), the numbers of its
+    lines in order (NaN for a blank field), the text field of an ``STO`` record's first line
+    (``"GAGP"``) and the file line of its ``>`` line."""
+
+    kind: str
+    sv: str
+    message: str
+    epoch: np.datetime64
+    values: tuple[float, ...]
+    label: str
+    line: int
+
+
+def is_rinex4(path: str | Path) -> bool:
+    """Whether the file's first line gives RINEX version 4 or later."""
+    with Path(path).open(errors="replace") as fh:
+        first = fh.readline()
+    try:
+        return float(first[:9]) >= 4.0
+    except ValueError:
+        return False
+
+
+def _number(text: str, where: tuple[str, int], what: str) -> float:
+    text = text.strip()
+    if not text:
+        return float("nan")
+    try:
+        return float(text.replace("D", "E").replace("d", "e"))
+    except ValueError:
+        raise DataFileError(where[0], where[1], f"{what}: {text!r} is not a number") from None
+
+
+def _epoch(text: str, where: tuple[str, int], what: str) -> np.datetime64:
+    parts = text.split()
+    try:
+        y, mo, d, h, mi = (int(p) for p in parts[:5])
+        s = float(parts[5])
+        return np.datetime64(f"{y:04d}-{mo:02d}-{d:02d}T{h:02d}:{mi:02d}", "ns") + np.timedelta64(
+            int(round(s * 1e9)), "ns"
+        )
+    except (ValueError, IndexError):
+        raise DataFileError(where[0], where[1], f"{what}: epoch {text.strip()!r} is not 'yyyy mm dd hh mm ss'") from None
+
+
+def _fields(line: str, start: int, count: int, where: tuple[str, int], what: str) -> list[float]:
+    return [_number(line[start + 19 * k : start + 19 * (k + 1)], where, what) for k in range(count)]
+
+
+def _record(path: str, head: int, kind: str, sv: str, message: str, lines: list[str]) -> Rinex4Record:
+    what = f"{kind} {sv} {message}"
+    first = lines[0]
+    where = (path, head + 1)
+    label = ""
+    if kind == "EPH":
+        epoch = _epoch(first[4:23], where, what)
+        values = _fields(first, 23, 3, where, what)
+    elif kind == "STO":
+        epoch = _epoch(first[4:23], where, what)
+        label = first[24:42].strip()
+        values = []
+    else:  # ION and EOP: an epoch and three numbers on the first line
+        epoch = _epoch(first[4:23], where, what)
+        values = _fields(first, 23, 3, where, what)
+    for k, line in enumerate(lines[1:], 2):
+        values += _fields(line.rstrip("\n").ljust(80), 4, 4, (path, head + k), what)
+    return Rinex4Record(kind, sv, message, epoch, tuple(values), label, head)
+
+
+def scan_rinex4_nav(path: str | Path) -> tuple[dict[str, str], list[Rinex4Record]]:
+    """The header lines (label -> the content of its last line) and every record of a
+    RINEX 4 navigation file, in file order.
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing, not RINEX 4, without END OF HEADER, or a record's line is
+        malformed (naming its line).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DataFileError(str(path), None, "no such file")
+    lines = path.read_text(errors="replace").splitlines()
+    if not lines or not is_rinex4(path):
+        raise DataFileError(str(path), 1, f"RINEX version {lines[0][:9].strip() if lines else ''!r}: not RINEX 4")
+    if "NAV" not in lines[0][20:40].upper() and lines[0][20:21] != "N":
+        raise DataFileError(str(path), 1, f"not a navigation file (type {lines[0][20:40].strip()!r})")
+    header: dict[str, str] = {}
+    end = None
+    for i, line in enumerate(lines):
+        label = line[60:].strip()
+        header[label] = line[:60]
+        if label == "END OF HEADER":
+            end = i
+            break
+    if end is None:
+        raise DataFileError(str(path), None, "no END OF HEADER line")
+    heads = [i for i in range(end + 1, len(lines)) if lines[i].startswith(">")]
+    records = []
+    for n, i in enumerate(heads):
+        stop = heads[n + 1] if n + 1 < len(heads) else len(lines)
+        parts = lines[i][1:].split()
+        if len(parts) < 3:
+            raise DataFileError(str(path), i + 1, f"record line {lines[i].strip()!r}: expected '> TYPE SV MESSAGE'")
+        kind, sv, message = parts[:3]
+        body = [line for line in lines[i + 1 : stop] if line.strip()]
+        if not body:
+            raise DataFileError(str(path), i + 1, f"{kind} {sv} {message}: the record has no lines")
+        records.append(_record(str(path), i + 1, kind, sv, message, body))
+    return header, records
+
+
+def _column(records: list[Rinex4Record], layout: tuple[tuple[str, ...], ...]) -> dict[str, np.ndarray]:
+    """The records' fields by name (the clock first, then the orbit lines)."""
+    names = ["SVclockBias", "SVclockDrift", "SVclockDriftRate"]
+    for row in layout:
+        names += list(row) + [""] * (4 - len(row))
+    table = np.full((len(records), len(names)), np.nan)
+    for r, rec in enumerate(records):
+        n = min(len(rec.values), len(names))
+        table[r, :n] = rec.values[:n]
+    return {name: table[:, k] for k, name in enumerate(names) if name}
+
+
+def records_to_ephemerides(records: list[Rinex4Record], cnav_band: str = "L2") -> Ephemerides | None:
+    """The complete ``EPH`` records among ``records`` of the messages `EPH_LAYOUTS` reads,
+    as `ephemeris.Ephemerides` with `ephemeris.read_rinex_nav`'s fields and meanings (file
+    order kept); None without one. ``cnav_band`` picks a CNAV record's health bit."""
+    if cnav_band not in CNAV_HEALTH_BITS:
+        raise ValueError(f"cnav_band {cnav_band!r}: one of {', '.join(CNAV_HEALTH_BITS)}")
+    parts = []
+    for key, layout in EPH_LAYOUTS.items():
+        index = [k for k, r in enumerate(records) if r.kind == "EPH" and (r.sv[:1], r.message) == key]
+        if not index:
+            continue
+        group = [records[k] for k in index]
+        values = _column(group, layout)
+        letter, message = key
+        sv = np.array([r.sv for r in group], dtype=str)
+        toc_s = gps_seconds_of_week(np.array([r.epoch for r in group]))
+        elements: dict[str, np.ndarray] = {}
+        if message in ("CNAV", "CNV2"):
+            values["Toe"] = toc_s.astype(float)  # t_oe is t_oc (module text)
+            word = np.nan_to_num(values["health"], nan=-1).astype(np.int64)
+            health = np.where(word < 0, np.nan, (word >> CNAV_HEALTH_BITS[cnav_band]) & 1).astype(float)
+            iod = np.round(values["Toe"] / 300.0)
+            urai = values["URAI_ED"]
+            accuracy = np.array([ura_ed_m(int(u)) if np.isfinite(u) else np.nan for u in urai])
+            for isc in ("ISC_L1CA", "ISC_L2C", "ISC_L5I5"):
+                elements[isc] = np.where(values[isc] == _ISC_ABSENT_S, np.nan, values[isc])
+            elements["Adot"] = values["Adot"]
+            elements["DeltaN0dot"] = values["DeltaN0dot"]
+            elements["CNAV"] = np.ones(len(group))
+            elements["Top"] = values["Top"]
+            elements["HealthL1L2L5"] = values["health"]
+            delay = values["TGD"]
+        elif letter == "E":
+            values["TGD"] = _group_delay("E", values)
+            src = np.nan_to_num(values["DataSrc"]).astype(np.int64)
+            elements["FNAV"] = (((src & 256) != 0) & ((src & 512) == 0)).astype(float)
+            health, iod, accuracy, delay = values["health"], values["IODnav"], values["SISA"], values["TGD"]
+        elif letter == "C":
+            health, iod, accuracy, delay = values["SatH1"], values["AODE"], values["SVacc"], values["TGD1"]
+        else:
+            health, iod, accuracy, delay = values["health"], values["IODE"], values["SVacc"], values["TGD"]
+        values["TGD"] = delay
+        for name in ORBIT_FIELDS + CLOCK_FIELDS:
+            elements[name] = values[name]
+        complete = np.all([np.isfinite(elements[f]) for f in ORBIT_FIELDS + CLOCK_FIELDS], axis=0)
+        complete &= np.isfinite(health) & np.isfinite(iod)
+        keep = np.flatnonzero(complete)
+        parts.append(
+            (
+                np.asarray(index)[keep],
+                Ephemerides(
+                    sv[keep],
+                    toc_s[keep].astype(float),
+                    {k: v[keep].astype(float) for k, v in elements.items()},
+                    health[keep].astype(float),
+                    iod[keep].astype(float),
+                    accuracy[keep].astype(float),
+                ),
+            )
+        )
+    parts = [p for p in parts if p[1].sv.size]
+    if not parts:
+        return None
+    merged = Ephemerides.concatenate([p[1] for p in parts])
+    order = np.argsort(np.concatenate([p[0] for p in parts]), kind="stable")
+    return merged.subset(order)
+
+
+def read_rinex4_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") -> Ephemerides:
+    """Every complete ``EPH`` record of the ``systems`` (RINEX letters, ``"GEC"``) in a
+    RINEX 4 navigation file, as `ephemeris.read_rinex_nav` gives a RINEX 3 file's (which
+    calls this for a RINEX 4 file).
+
+    Raises
+    ------
+    DataFileError
+        If the file cannot be read (`scan_rinex4_nav`) or holds no complete record of the
+        systems.
+    ValueError
+        For a system this code does not propagate (GLONASS ``R``: state vectors).
+    """
+    for letter in systems:
+        if letter not in SYSTEMS:
+            raise _system_error(letter)
+    _, records = scan_rinex4_nav(path)
+    wanted = [r for r in records if r.kind == "EPH" and r.sv[:1] in systems]
+    eph = records_to_ephemerides(wanted, cnav_band)
+    if eph is None:
+        read = sorted({f"{r.sv[:1]} {r.message}" for r in wanted})
+        held = f" (it holds {', '.join(read)}, none read here)" if read else ""
+        raise DataFileError(str(path), None, f"no complete {systems} ephemeris record{held}")
+    return eph
+
+
+def klobuchar_of(records: list[Rinex4Record], system: str, message: str) -> tuple[tuple, tuple] | None:
+    """α0-α3 and β0-β3 of the first ``ION`` record of ``system`` and ``message``."""
+    for r in records:
+        if r.kind == "ION" and r.sv[:1] == system and r.message == message and len(r.values) >= 8:
+            return tuple(r.values[:4]), tuple(r.values[4:8])
+    return None
+
+
+def time_offset_of(records: list[Rinex4Record], label: str) -> tuple[float, float, float, int] | None:
+    """``(A0 s, A1 s/s, reference s of week, reference GPS week)`` of the first ``STO``
+    record named ``label`` (``"GAGP"``)."""
+    for r in records:
+        if r.kind == "STO" and r.label == label and len(r.values) >= 3:
+            seconds = (r.epoch - np.datetime64("1980-01-06T00:00:00", "ns")) / np.timedelta64(1, "s")
+            week = int(seconds // 604800.0)
+            return float(r.values[1]), float(r.values[2]), float(seconds - week * 604800.0), week
+    return None
+
+
+def read_rinex4_info(path: str | Path):
+    """`rinex_nav_header.NavFileInfo` of a RINEX 4 navigation file: GPS's Klobuchar model
+    from its first ``ION G LNAV`` record (QZSS's where none) with ``LEAP SECONDS``, BeiDou's
+    from its first ``ION C D1D2``, the GGTO from its first ``STO GAGP`` and the span of its
+    ``EPH`` records' epochs.
+
+    Raises
+    ------
+    DataFileError
+        As `scan_rinex4_nav`, or without an ``EPH`` record.
+    """
+    from .rinex_nav_header import NavFileInfo
+
+    header, records = scan_rinex4_nav(path)
+    epochs = np.array([r.epoch for r in records if r.kind == "EPH"], dtype="datetime64[ns]")
+    if epochs.size == 0:
+        raise DataFileError(str(path), None, "no ephemeris record")
+    seconds = (epochs - np.datetime64("1980-01-06T00:00:00", "ns")) / np.timedelta64(1, "s")
+    leap_text = header.get("LEAP SECONDS", "")
+    try:
+        leap = int(leap_text[:6])
+    except ValueError:
+        leap = 18  # as a RINEX 3 header without LEAP SECONDS (`rinex_nav_header`)
+    gps = klobuchar_of(records, "G", "LNAV") or klobuchar_of(records, "J", "LNAV")
+    bds = klobuchar_of(records, "C", "D1D2")
+    return NavFileInfo(
+        Path(path),
+        None if gps is None else IonoUtc(gps[0], gps[1], dt_ls_s=leap),
+        float(np.min(seconds)),
+        float(np.max(seconds)),
+        time_offset_of(records, "GAGP"),
+        None if bds is None else BdsKlobuchar(bds[0], bds[1]),
+    )
