@@ -823,6 +823,12 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
     return assistance(where, *when, iono=iono)
 
 
+def _rinex_version(args: argparse.Namespace) -> str | None:
+    """navigation.rnx's RINEX version of ``--rinex-version`` (None: chosen by its records)."""
+    chosen = getattr(args, "rinex_version", None)
+    return None if chosen is None else {"3": "3.04", "4": "4.00"}[chosen]
+
+
 def _cmd_receive(args: argparse.Namespace) -> int:
     if args.nmea_out == "-":  # standard output carries the sentences: the messages go to standard error
         import contextlib
@@ -1140,7 +1146,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             "note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
             "(give it with --week)"
         )
-    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signal)
+    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signal, _rinex_version(args))
     written += extra
     for note in notes:
         print(f"note: {note}")
@@ -1292,7 +1298,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
         ]
     else:
         print("note: the GPS week is unknown: no observations.rnx or nmea.txt (give it with --week)")
-    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signals)  # type: ignore[arg-type]
+    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signals, _rinex_version(args))  # type: ignore[arg-type]
     written += extra
     for note in notes:
         print(f"note: {note}")
@@ -1901,6 +1907,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
         "rinex-nav,gsa,gsv,geojson, the set written without this option",
     )
+    p.add_argument(
+        "--rinex-version",
+        choices=("3", "4"),
+        help="navigation.rnx as RINEX 3.04 or 4.00 (default: 3.04, or 4.00 where a record is from CNAV, "
+        "which RINEX 3.04 cannot hold)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     _add_live_options(p)
     p.set_defaults(func=_cmd_receive)
@@ -1974,6 +1986,7 @@ OPTION_OF_PARAMETER = {
     "raim_false_alarm": "--raim-pfa",
     "raim_missed_detection": "--raim-pmd",
     "outputs": "--outputs",
+    "rinex_version": "--rinex-version",
     "threads": "--threads",
     "tracking.coherent_ms": "--coherent-ms-track",
 }

@@ -45,9 +45,10 @@ from .cnav import (
     parse_utc,
 )
 from .ephemeris import Ephemerides
-from .lnav import URA_M, IonoUtc
+from .lnav import IonoUtc
+from .ura import ura_ed_m
 
-__all__ = ["ura_ed_m", "cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S", "HEALTH_BIT"]
+__all__ = ["cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S", "HEALTH_BIT"]
 
 #: GPS-UTC leap seconds taken where no type 33 message was decoded (as a RINEX header
 #: without LEAP SECONDS, `rinex_nav_header`).
@@ -56,12 +57,6 @@ _PI = np.pi  # IS-GPS-200's semicircle (the ICD's own value of pi)
 #: The bit of message type 10's ``health_l1_l2_l5`` (L1 the high bit, L2 the middle one, L5
 #: the low one) a record holds, by the band of the signal decoded.
 HEALTH_BIT = {"L2": 1, "L5": 0}
-
-
-def ura_ed_m(index: int) -> float:
-    """The accuracy (m) of a URA_ED index: the LNAV URA table for 0-15, :math:`2^{1 + N/2}`
-    below 0 (IS-GPS-200 30.3.3.1.1.4)."""
-    return float(URA_M[index]) if index >= 0 else float(2.0 ** (1 + index / 2))
 
 
 def cnav_record(

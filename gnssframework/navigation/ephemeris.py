@@ -570,10 +570,11 @@ def _group_delay(letter: str, values: dict) -> np.ndarray:
     return np.where(src & 512, values["BGDe5b"], np.where(src & 256, values["BGDe5a"], np.nan))
 
 
-def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
+def read_rinex_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") -> Ephemerides:
     """Every complete ephemeris record of the ``systems`` (RINEX letters, ``"G"``,
-    ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex), or a RINEX 4 one
-    (`rinex4_nav.read_rinex4_nav`: its GPS and QZSS CNAV records too).
+    ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex), or a RINEX 4 one (`rinex4_nav`;
+    its GPS and QZSS CNAV and CNV2 records too, their health the ``cnav_band``'s bit of the
+    L1/L2/L5 word: ``"L1"``, ``"L2"`` or ``"L5"``).
 
     A Galileo record also holds ``elements["FNAV"]``: 1 where its clock is for E1,E5a (data
     source bit 8 without bit 9), 0 otherwise (`GALILEO_FIELDS`).
@@ -603,10 +604,10 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
-    from .rinex4_nav import is_rinex4, read_rinex4_nav
+    from .rinex4_nav import is_rinex4
 
     if is_rinex4(path):  # georinex reads RINEX 2 and 3 only
-        return read_rinex4_nav(path, systems)
+        return _read_rinex4(path, systems, cnav_band)
     names = "/".join(_SYSTEM_NAMES[letter] for letter in systems)
     parts = []
     for letter in dict.fromkeys(systems):
@@ -688,3 +689,68 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         np.concatenate([p[4] for p in parts]),
         np.concatenate([p[5] for p in parts]),
     )
+
+
+def _read_rinex4(path: Path, systems: str, cnav_band: str) -> Ephemerides:
+    """`read_rinex_nav` of a RINEX 4 file: its ``EPH`` records of `rinex4_nav.EPH_LAYOUTS`
+    with the fields and meanings of a RINEX 3 file's (file order kept); a CNAV record's
+    ``Toe`` its epoch, its health the ``cnav_band`` bit, its issue of data t_oe / 300 and
+    its accuracy the URA_ED index's metres, as `cnav_records` gives a decoded one."""
+    from .rinex4_nav import CNAV_HEALTH_BITS, ISC_ABSENT_S, eph_tables, scan_rinex4_nav
+    from .ura import ura_ed_m
+
+    if cnav_band not in CNAV_HEALTH_BITS:
+        raise ValueError(f"cnav_band {cnav_band!r}: one of {', '.join(CNAV_HEALTH_BITS)}")
+    _, records = scan_rinex4_nav(path)
+    wanted = [r for r in records if r.kind == "EPH" and r.sv[:1] in systems]
+    parts = []
+    for index, letter, message, group, values in eph_tables(wanted):
+        sv = np.array([r.sv for r in group], dtype=str)
+        toc_s = gps_seconds_of_week(np.array([r.epoch for r in group])).astype(float)
+        elements: dict[str, np.ndarray] = {}
+        if message in ("CNAV", "CNV2"):
+            values["Toe"] = toc_s  # RINEX 4 writes no t_oe: it is t_oc
+            word = np.nan_to_num(values["health"], nan=-1).astype(np.int64)
+            health = np.where(word < 0, np.nan, (word >> CNAV_HEALTH_BITS[cnav_band]) & 1).astype(float)
+            iod = np.round(values["Toe"] / 300.0)
+            accuracy = np.array([ura_ed_m(int(u)) if np.isfinite(u) else np.nan for u in values["URAI_ED"]])
+            for isc in ("ISC_L1CA", "ISC_L2C", "ISC_L5I5"):
+                elements[isc] = np.where(values[isc] == ISC_ABSENT_S, np.nan, values[isc])
+            elements.update(
+                Adot=values["Adot"],
+                DeltaN0dot=values["DeltaN0dot"],
+                CNAV=np.ones(sv.size),
+                Top=values["Top"],
+                HealthL1L2L5=values["health"],
+            )
+        else:
+            delay_fields, health_name, iod_name, accuracy_name = _SYSTEM_FIELDS[letter]
+            values["TGD"] = _group_delay(letter, values)
+            health, iod, accuracy = values[health_name], values[iod_name], values[accuracy_name]
+            if letter == "E":
+                src = np.nan_to_num(values["DataSrc"]).astype(np.int64)
+                elements["FNAV"] = (((src & 256) != 0) & ((src & 512) == 0)).astype(float)
+        for name in ORBIT_FIELDS + CLOCK_FIELDS:
+            elements[name] = values[name]
+        complete = np.all([np.isfinite(elements[f]) for f in ORBIT_FIELDS + CLOCK_FIELDS], axis=0)
+        keep = np.flatnonzero(complete & np.isfinite(health) & np.isfinite(iod))
+        if keep.size:
+            parts.append(
+                (
+                    index[keep],
+                    Ephemerides(
+                        sv[keep],
+                        toc_s[keep],
+                        {k: v[keep].astype(float) for k, v in elements.items()},
+                        health[keep].astype(float),
+                        iod[keep].astype(float),
+                        accuracy[keep].astype(float),
+                    ),
+                )
+            )
+    if not parts:
+        read = sorted({f"{r.sv[:1]} {r.message}" for r in wanted})
+        held = f" (it holds {', '.join(read)}: none of them read here)" if read else ""
+        raise DataFileError(str(path), None, f"no complete {systems} ephemeris record{held}")
+    merged = Ephemerides.concatenate([p[1] for p in parts])
+    return merged.subset(np.argsort(np.concatenate([p[0] for p in parts]), kind="stable"))

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import ConfigError
 from .ephemeris import KEPLER_TO_RINEX, ORBIT_FIELDS, SEMICIRCLE_FIELDS, Ephemerides
 from .fec import real_symbols
+from .ura import URA_M
 
 __all__ = [
     "PI_IS_GPS",
@@ -61,10 +62,6 @@ BITS_PER_SUBFRAME = 300
 SUBFRAME_S = 6.0
 #: Seconds in a GPS week.
 WEEK_S = 604_800.0
-#: URA index -> nominal accuracy, m (upper bounds of IS-GPS-200 20.3.3.3.1.3; index 15: none, -1).
-URA_M = np.array(
-    [2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0, 6144.0, -1.0]
-)
 
 # Parity equations of IS-GPS-200 Table 20-XIV: for D25..D30, the source data bits d1..d24
 # and which of the previous word's D29*, D30* enters.

@@ -1,5 +1,7 @@
-r"""RINEX 4 navigation files: their records read into `ephemeris.Ephemerides` and their
-ionosphere and time-offset messages into a `rinex_nav_header.NavFileInfo`.
+r"""RINEX 4 navigation files, parsed: their records as written and their ``EPH`` records'
+fields by name, which `ephemeris.read_rinex_nav` makes `ephemeris.Ephemerides` and
+`rinex_nav_header.read_nav_file_info` a `rinex_nav_header.NavFileInfo` (with the first ``ION``
+and ``STO`` records).
 
 RINEX 4.00 (IGS/RTCM-SC104, 2021; 4.01 and 4.02 keep the layouts read here) gives every
 record a line of its own before it, ``> EPH G01 LNAV``: the record type (``EPH``, ``ION``,
@@ -33,7 +35,8 @@ An ``ION`` record holds the coefficients the satellite broadcast at its epoch: G
 An ``STO`` record a time offset ``A0, A1, A2`` at the reference time of its epoch (its
 second line ``t_tm, A0, A1, A2``), named as RINEX 3's ``TIME SYSTEM CORR`` (``GPUT``,
 ``GAGP``, ``GAUT``, ``BDUT``). What a RINEX 3 header held once, the first of these records
-holds here (`read_rinex4_info`): the models a receiver would use at the file's start.
+holds here (`rinex_nav_header.read_nav_file_info`): the models a receiver would use at the
+file's start.
 """
 
 from __future__ import annotations
@@ -44,26 +47,17 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
-from .bds_iono import BdsKlobuchar
-from .cnav_records import ura_ed_m
-from .ephemeris import (
-    CLOCK_FIELDS,
-    ORBIT_FIELDS,
-    SYSTEMS,
-    Ephemerides,
-    _group_delay,
-    _system_error,
-    gps_seconds_of_week,
-)
-from .lnav import IonoUtc
 
 __all__ = [
     "Rinex4Record",
     "EPH_LAYOUTS",
+    "CNAV_HEALTH_BITS",
+    "ISC_ABSENT_S",
     "is_rinex4",
     "scan_rinex4_nav",
-    "read_rinex4_nav",
-    "records_to_ephemerides",
+    "eph_tables",
+    "klobuchar_of",
+    "time_offset_of",
 ]
 
 _LNAV = (
@@ -123,7 +117,7 @@ EPH_LAYOUTS: dict[tuple[str, str], tuple[tuple[str, ...], ...]] = {
 CNAV_HEALTH_BITS = {"L1": 2, "L2": 1, "L5": 0}
 #: A broadcast ISC's "not available" value (13-bit field 1000000000000 x 2^-35 s,
 #: IS-GPS-200 30.3.3.3.1.1): read as NaN.
-_ISC_ABSENT_S = -4096 * 2.0**-35
+ISC_ABSENT_S = -4096 * 2.0**-35
 
 
 @dataclass(frozen=True)
@@ -172,7 +166,9 @@ def _epoch(text: str, where: tuple[str, int], what: str) -> np.datetime64:
             int(round(s * 1e9)), "ns"
         )
     except (ValueError, IndexError):
-        raise DataFileError(where[0], where[1], f"{what}: epoch {text.strip()!r} is not 'yyyy mm dd hh mm ss'") from None
+        raise DataFileError(
+            where[0], where[1], f"{what}: epoch {text.strip()!r} is not 'yyyy mm dd hh mm ss'"
+        ) from None
 
 
 def _fields(line: str, start: int, count: int, where: tuple[str, int], what: str) -> list[float]:
@@ -254,98 +250,21 @@ def _column(records: list[Rinex4Record], layout: tuple[tuple[str, ...], ...]) ->
     return {name: table[:, k] for k, name in enumerate(names) if name}
 
 
-def records_to_ephemerides(records: list[Rinex4Record], cnav_band: str = "L2") -> Ephemerides | None:
-    """The complete ``EPH`` records among ``records`` of the messages `EPH_LAYOUTS` reads,
-    as `ephemeris.Ephemerides` with `ephemeris.read_rinex_nav`'s fields and meanings (file
-    order kept); None without one. ``cnav_band`` picks a CNAV record's health bit."""
-    if cnav_band not in CNAV_HEALTH_BITS:
-        raise ValueError(f"cnav_band {cnav_band!r}: one of {', '.join(CNAV_HEALTH_BITS)}")
-    parts = []
-    for key, layout in EPH_LAYOUTS.items():
-        index = [k for k, r in enumerate(records) if r.kind == "EPH" and (r.sv[:1], r.message) == key]
-        if not index:
-            continue
-        group = [records[k] for k in index]
-        values = _column(group, layout)
-        letter, message = key
-        sv = np.array([r.sv for r in group], dtype=str)
-        toc_s = gps_seconds_of_week(np.array([r.epoch for r in group]))
-        elements: dict[str, np.ndarray] = {}
-        if message in ("CNAV", "CNV2"):
-            values["Toe"] = toc_s.astype(float)  # t_oe is t_oc (module text)
-            word = np.nan_to_num(values["health"], nan=-1).astype(np.int64)
-            health = np.where(word < 0, np.nan, (word >> CNAV_HEALTH_BITS[cnav_band]) & 1).astype(float)
-            iod = np.round(values["Toe"] / 300.0)
-            urai = values["URAI_ED"]
-            accuracy = np.array([ura_ed_m(int(u)) if np.isfinite(u) else np.nan for u in urai])
-            for isc in ("ISC_L1CA", "ISC_L2C", "ISC_L5I5"):
-                elements[isc] = np.where(values[isc] == _ISC_ABSENT_S, np.nan, values[isc])
-            elements["Adot"] = values["Adot"]
-            elements["DeltaN0dot"] = values["DeltaN0dot"]
-            elements["CNAV"] = np.ones(len(group))
-            elements["Top"] = values["Top"]
-            elements["HealthL1L2L5"] = values["health"]
-            delay = values["TGD"]
-        elif letter == "E":
-            values["TGD"] = _group_delay("E", values)
-            src = np.nan_to_num(values["DataSrc"]).astype(np.int64)
-            elements["FNAV"] = (((src & 256) != 0) & ((src & 512) == 0)).astype(float)
-            health, iod, accuracy, delay = values["health"], values["IODnav"], values["SISA"], values["TGD"]
-        elif letter == "C":
-            health, iod, accuracy, delay = values["SatH1"], values["AODE"], values["SVacc"], values["TGD1"]
-        else:
-            health, iod, accuracy, delay = values["health"], values["IODE"], values["SVacc"], values["TGD"]
-        values["TGD"] = delay
-        for name in ORBIT_FIELDS + CLOCK_FIELDS:
-            elements[name] = values[name]
-        complete = np.all([np.isfinite(elements[f]) for f in ORBIT_FIELDS + CLOCK_FIELDS], axis=0)
-        complete &= np.isfinite(health) & np.isfinite(iod)
-        keep = np.flatnonzero(complete)
-        parts.append(
-            (
-                np.asarray(index)[keep],
-                Ephemerides(
-                    sv[keep],
-                    toc_s[keep].astype(float),
-                    {k: v[keep].astype(float) for k, v in elements.items()},
-                    health[keep].astype(float),
-                    iod[keep].astype(float),
-                    accuracy[keep].astype(float),
-                ),
-            )
-        )
-    parts = [p for p in parts if p[1].sv.size]
-    if not parts:
-        return None
-    merged = Ephemerides.concatenate([p[1] for p in parts])
-    order = np.argsort(np.concatenate([p[0] for p in parts]), kind="stable")
-    return merged.subset(order)
-
-
-def read_rinex4_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") -> Ephemerides:
-    """Every complete ``EPH`` record of the ``systems`` (RINEX letters, ``"GEC"``) in a
-    RINEX 4 navigation file, as `ephemeris.read_rinex_nav` gives a RINEX 3 file's (which
-    calls this for a RINEX 4 file).
-
-    Raises
-    ------
-    DataFileError
-        If the file cannot be read (`scan_rinex4_nav`) or holds no complete record of the
-        systems.
-    ValueError
-        For a system this code does not propagate (GLONASS ``R``: state vectors).
-    """
-    for letter in systems:
-        if letter not in SYSTEMS:
-            raise _system_error(letter)
-    _, records = scan_rinex4_nav(path)
-    wanted = [r for r in records if r.kind == "EPH" and r.sv[:1] in systems]
-    eph = records_to_ephemerides(wanted, cnav_band)
-    if eph is None:
-        read = sorted({f"{r.sv[:1]} {r.message}" for r in wanted})
-        held = f" (it holds {', '.join(read)}, none read here)" if read else ""
-        raise DataFileError(str(path), None, f"no complete {systems} ephemeris record{held}")
-    return eph
+def eph_tables(
+    records: list[Rinex4Record],
+) -> list[tuple[np.ndarray, str, str, list[Rinex4Record], dict[str, np.ndarray]]]:
+    """The ``EPH`` records among ``records`` of the messages `EPH_LAYOUTS` reads, grouped by
+    (system, message): each group's positions in ``records``, system letter, message, its
+    records and their fields by name (the clock's ``SVclockBias``, ``SVclockDrift``,
+    ``SVclockDriftRate``, then the layout's; NaN where blank). `ephemeris.read_rinex_nav`
+    makes them `ephemeris.Ephemerides`."""
+    out = []
+    for (letter, message), layout in EPH_LAYOUTS.items():
+        index = [k for k, r in enumerate(records) if r.kind == "EPH" and (r.sv[:1], r.message) == (letter, message)]
+        if index:
+            group = [records[k] for k in index]
+            out.append((np.asarray(index), letter, message, group, _column(group, layout)))
+    return out
 
 
 def klobuchar_of(records: list[Rinex4Record], system: str, message: str) -> tuple[tuple, tuple] | None:
@@ -365,38 +284,3 @@ def time_offset_of(records: list[Rinex4Record], label: str) -> tuple[float, floa
             week = int(seconds // 604800.0)
             return float(r.values[1]), float(r.values[2]), float(seconds - week * 604800.0), week
     return None
-
-
-def read_rinex4_info(path: str | Path):
-    """`rinex_nav_header.NavFileInfo` of a RINEX 4 navigation file: GPS's Klobuchar model
-    from its first ``ION G LNAV`` record (QZSS's where none) with ``LEAP SECONDS``, BeiDou's
-    from its first ``ION C D1D2``, the GGTO from its first ``STO GAGP`` and the span of its
-    ``EPH`` records' epochs.
-
-    Raises
-    ------
-    DataFileError
-        As `scan_rinex4_nav`, or without an ``EPH`` record.
-    """
-    from .rinex_nav_header import NavFileInfo
-
-    header, records = scan_rinex4_nav(path)
-    epochs = np.array([r.epoch for r in records if r.kind == "EPH"], dtype="datetime64[ns]")
-    if epochs.size == 0:
-        raise DataFileError(str(path), None, "no ephemeris record")
-    seconds = (epochs - np.datetime64("1980-01-06T00:00:00", "ns")) / np.timedelta64(1, "s")
-    leap_text = header.get("LEAP SECONDS", "")
-    try:
-        leap = int(leap_text[:6])
-    except ValueError:
-        leap = 18  # as a RINEX 3 header without LEAP SECONDS (`rinex_nav_header`)
-    gps = klobuchar_of(records, "G", "LNAV") or klobuchar_of(records, "J", "LNAV")
-    bds = klobuchar_of(records, "C", "D1D2")
-    return NavFileInfo(
-        Path(path),
-        None if gps is None else IonoUtc(gps[0], gps[1], dt_ls_s=leap),
-        float(np.min(seconds)),
-        float(np.max(seconds)),
-        time_offset_of(records, "GAGP"),
-        None if bds is None else BdsKlobuchar(bds[0], bds[1]),
-    )

@@ -155,8 +155,10 @@ def _header_ggto(path: Path) -> tuple[float, float, float, int] | None:
 
 
 def read_nav_file_info(path: str | Path) -> NavFileInfo:
-    """`NavFileInfo` of a RINEX 2 or 3 navigation file, or of a RINEX 4 one
-    (`rinex4_nav.read_rinex4_info`).
+    """`NavFileInfo` of a RINEX 2 or 3 navigation file, or of a RINEX 4 one: GPS's Klobuchar
+    model from its first ``ION G LNAV`` record (QZSS's where none) with ``LEAP SECONDS``,
+    BeiDou's from its first ``ION C D1D2``, the GGTO from its first ``STO GAGP`` and the span
+    of its ``EPH`` records' epochs (`rinex4_nav`).
 
     Raises
     ------
@@ -168,10 +170,10 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
-    from .rinex4_nav import is_rinex4, read_rinex4_info
+    from .rinex4_nav import is_rinex4
 
     if is_rinex4(path):  # its ionosphere and time offsets are records, not header lines
-        return read_rinex4_info(path)
+        return _rinex4_info(path)
     iono = _header_iono(path)
     try:
         times = np.asarray(georinex.gettime(path), dtype="datetime64[ns]")
@@ -184,4 +186,29 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     seconds = (times - _GPS_EPOCH) / np.timedelta64(1, "s")
     return NavFileInfo(
         path, iono, float(np.min(seconds)), float(np.max(seconds)), _header_ggto(path), _header_bds_iono(path)
+    )
+
+
+def _rinex4_info(path: Path) -> NavFileInfo:
+    """`read_nav_file_info` of a RINEX 4 file (its docstring)."""
+    from .rinex4_nav import klobuchar_of, scan_rinex4_nav, time_offset_of
+
+    header, records = scan_rinex4_nav(path)
+    epochs = np.array([r.epoch for r in records if r.kind == "EPH"], dtype="datetime64[ns]")
+    if epochs.size == 0:
+        raise DataFileError(str(path), None, "no ephemeris record")
+    seconds = (epochs - _GPS_EPOCH) / np.timedelta64(1, "s")
+    try:
+        leap = int(header.get("LEAP SECONDS", "")[:6])
+    except ValueError:
+        leap = 18  # as a RINEX 3 header without LEAP SECONDS (`_header_iono`)
+    gps = klobuchar_of(records, "G", "LNAV") or klobuchar_of(records, "J", "LNAV")
+    bds = klobuchar_of(records, "C", "D1D2")
+    return NavFileInfo(
+        path,
+        None if gps is None else IonoUtc(gps[0], gps[1], dt_ls_s=leap),  # type: ignore[arg-type]
+        float(np.min(seconds)),
+        float(np.max(seconds)),
+        time_offset_of(records, "GAGP"),
+        None if bds is None else BdsKlobuchar(bds[0], bds[1]),  # type: ignore[arg-type]
     )

@@ -58,7 +58,8 @@ class BroadcastEphemeris(SatelliteSet):
 
 
 def load_rinex_nav(path: str | Path, t_s: float | None = None) -> BroadcastEphemeris:
-    """GPS ephemerides of a RINEX navigation file (georinex), one per satellite.
+    """GPS ephemerides of a RINEX navigation file (georinex; a RINEX 4 file's LNAV records
+    through `navigation.rinex4_nav`), one per satellite.
 
     With ``t_s`` (GPS seconds of week), each satellite's record whose ``Toe`` is closest
     is used; otherwise its last record.
@@ -71,6 +72,11 @@ def load_rinex_nav(path: str | Path, t_s: float | None = None) -> BroadcastEphem
     import georinex
 
     path = check_input_file(path)
+    from ..navigation.ephemeris import read_rinex_nav
+    from ..navigation.rinex4_nav import is_rinex4
+
+    if is_rinex4(path):  # georinex reads RINEX 2 and 3: the project's RINEX 4 reader, LNAV records
+        return _from_records(read_rinex_nav(path, "G"), t_s)
     try:
         with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings per record
             warnings.simplefilter("ignore", FutureWarning)
@@ -93,5 +99,20 @@ def load_rinex_nav(path: str | Path, t_s: float | None = None) -> BroadcastEphem
         rows.append([float(sat[f].values[pick]) for f in EPHEMERIS_FIELDS])
     if not rows:
         raise DataFileError(str(path), None, "no complete GPS ephemeris")
+    table = np.array(rows)
+    return BroadcastEphemeris(np.array(prns), {f: table[:, j] for j, f in enumerate(EPHEMERIS_FIELDS)})
+
+
+def _from_records(records, t_s: float | None) -> BroadcastEphemeris:
+    """One LNAV record per satellite of `ephemeris.Ephemerides` (CNAV records left out: their
+    Adot and Delta n0 rate are not elements here), chosen as `load_rinex_nav` chooses."""
+    lnav = records.subset(np.flatnonzero(records.elements["CNAV"] == 0)) if "CNAV" in records.elements else records
+    prns, rows = [], []
+    for sv in dict.fromkeys(lnav.sv.tolist()):
+        idx = np.flatnonzero(lnav.sv == sv)
+        toe = lnav.elements["Toe"][idx]
+        pick = idx[np.argmin(np.abs(toe - t_s))] if t_s is not None else idx[-1]
+        prns.append(int(str(sv)[1:]))
+        rows.append([float(lnav.elements[f][pick]) for f in EPHEMERIS_FIELDS])
     table = np.array(rows)
     return BroadcastEphemeris(np.array(prns), {f: table[:, j] for j, f in enumerate(EPHEMERIS_FIELDS)})

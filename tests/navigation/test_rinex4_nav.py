@@ -13,7 +13,7 @@ import pytest
 
 from gnssframework.errors import DataFileError
 from gnssframework.navigation.ephemeris import CLOCK_FIELDS, ORBIT_FIELDS, read_rinex_nav, satellite_state
-from gnssframework.navigation.rinex4_nav import is_rinex4, read_rinex4_nav, scan_rinex4_nav
+from gnssframework.navigation.rinex4_nav import is_rinex4, scan_rinex4_nav
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 
 DATA = Path(__file__).parents[1] / "data"
@@ -54,7 +54,7 @@ def _key_order(eph) -> np.ndarray:
 
 
 def test_shared_layouts_read_as_georinex_reads_them(tmp_path):
-    ours = read_rinex_nav(BRD4, "GJEC")  # a RINEX 4 file: `read_rinex4_nav`
+    ours = read_rinex_nav(BRD4, "GJEC")  # a RINEX 4 file: `rinex4_nav`
     ours = ours.subset(np.flatnonzero(ours.elements["CNAV"] == 0))
     theirs = read_rinex_nav(_as_rinex3(BRD4, tmp_path / "brd3.rnx"), "GJEC")
     # 13 GPS LNAV, 5 QZSS LNAV, 26 Galileo (13 I/NAV, 13 F/NAV), 15 BeiDou D1/D2 records.
@@ -70,7 +70,7 @@ def test_shared_layouts_read_as_georinex_reads_them(tmp_path):
 
 
 def test_cnav_records_place_satellites_where_lnav_does():
-    eph = read_rinex4_nav(BRD4, "GJ")
+    eph = read_rinex_nav(BRD4, "GJ")
     cnav = eph.elements["CNAV"] == 1
     assert sorted(set(eph.sv[cnav])) == ["G01", "G04", "G08", "G10", "J02"]
     worst = 0.0
@@ -96,7 +96,7 @@ def test_cnav_records_place_satellites_where_lnav_does():
 
 
 def test_cnav_fields_as_the_record_writes_them():
-    eph = read_rinex4_nav(BRD4, "G")
+    eph = read_rinex_nav(BRD4, "G")
     first = np.flatnonzero(eph.elements["CNAV"] == 1)[0]
     e = {k: float(v[first]) for k, v in eph.elements.items()}
     # > EPH G01 CNAV at 2023-03-12 01:30:00 (the file's lines, read by eye).
@@ -105,7 +105,7 @@ def test_cnav_fields_as_the_record_writes_them():
     assert e["Top"] == 5.427e05 and e["ISC_L2C"] == -2.532033249736e-09
     # Health word 1: L5 flagged (IS-GPS-200 30.3.3.1.1.2); the L2 user's bit is clear.
     assert e["HealthL1L2L5"] == 1.0 and eph.health[first] == 0.0
-    assert read_rinex4_nav(BRD4, "G", cnav_band="L5").health[first] == 1.0
+    assert read_rinex_nav(BRD4, "G", cnav_band="L5").health[first] == 1.0
     assert eph.accuracy_m[first] == pytest.approx(2.0 ** (1 - 1 / 2))  # URA_ED index -1
     assert eph.iode[first] == 18.0  # t_oe / 300
 
@@ -114,10 +114,10 @@ def test_other_messages_are_left_out_and_counted():
     _, records = scan_rinex4_nav(BRD4)
     kinds = {(r.kind, r.sv, r.message) for r in records}
     assert ("EPH", "C20", "CNV1") in kinds and ("EPH", "R01", "FDMA") in kinds
-    beidou = read_rinex4_nav(BRD4, "C")
+    beidou = read_rinex_nav(BRD4, "C")
     assert sorted(set(beidou.sv)) == ["C01", "C06", "C20"] and beidou.sv.size == 15  # D1/D2 only
     with pytest.raises(ValueError, match="GLONASS"):
-        read_rinex4_nav(BRD4, "R")
+        read_rinex_nav(BRD4, "R")
 
 
 def test_info_from_ion_and_sto_records():
@@ -140,10 +140,26 @@ def test_bad_lines_are_named(tmp_path):
     path = tmp_path / "broken.rnx"
     path.write_text("".join(broken))
     with pytest.raises(DataFileError, match=rf"broken.rnx:{at + 3}: EPH G01 LNAV: 'x.651580674421e-09'"):
-        read_rinex4_nav(path, "G")
+        read_rinex_nav(path, "G")
     (tmp_path / "v3.rnx").write_text("".join(lines[:1]).replace("4.00", "3.04"))
     with pytest.raises(DataFileError, match="not RINEX 4"):
         scan_rinex4_nav(tmp_path / "v3.rnx")
     (tmp_path / "short.rnx").write_text("".join(lines[:at]) + "> EPH G01\n" + "".join(lines[at + 1 :]))
     with pytest.raises(DataFileError, match=rf"short.rnx:{at + 1}: record line '> EPH G01'"):
         scan_rinex4_nav(tmp_path / "short.rnx")
+
+
+def test_the_simulator_takes_a_rinex4_files_lnav_records():
+    from gnssframework.simulation.ephemeris import load_rinex_nav
+
+    sim = load_rinex_nav(BRD4, t_s=5000.0)  # nearest Toe: CNAV's 5400 s, LNAV's 7200 s
+    eph = read_rinex_nav(BRD4, "G")
+    assert sorted(sim.prn) == [1, 4, 8, 10]
+    for k, prn in enumerate(sim.prn):
+        lnav = (eph.sv == f"G{prn:02d}") & (eph.elements["CNAV"] == 0)
+        pick = np.flatnonzero(lnav)[np.argmin(np.abs(eph.elements["Toe"][lnav] - 5000.0))]
+        assert eph.elements["Toe"][pick] != 5400.0
+        assert (
+            sim.elements["sqrtA"][k] == eph.elements["sqrtA"][pick]
+            and sim.elements["M0"][k] == eph.elements["M0"][pick]
+        )

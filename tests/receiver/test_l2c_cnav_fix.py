@@ -87,8 +87,9 @@ def test_the_command_positions_without_a_navigation_file(l2c_long, tmp_path, cap
     """What a user types: no ``--ephemeris`` and no ``--week``. The fixes come once the
     records are complete, in the records' week (2005's 1316, which type 10's 13 bits carry
     and no 10-bit week places: that reads as 2340); the report says when each satellite's
-    was decoded; no navigation.rnx is written, and the note says why (RINEX 3.04 has no
-    CNAV record)."""
+    was decoded; navigation.rnx is written as RINEX 4.00 (RINEX 3.04 has no CNAV record,
+    the note says so), and its records place each satellite where the navigation file's
+    own record does (within the CNAV scale factors' 2 cm)."""
     path, sats = l2c_long
     out = tmp_path / "rx"
     args = ["receive", str(path), "--signal", "gps-l2c", "--out", str(out)]
@@ -97,8 +98,14 @@ def test_the_command_positions_without_a_navigation_file(l2c_long, tmp_path, cap
         rows = list(csv.DictReader(f))
     assert len(rows) >= 3 and all(int(r["n_sats"]) == 5 for r in rows)
     assert {int(r["gps_week"]) for r in rows} == {WEEK}
-    assert not (out / "navigation.rnx").exists()
-    assert "CNAV records have no RINEX 3.04 layout" in capsys.readouterr().out
+    assert "CNAV records: navigation.rnx is written as RINEX 4.00" in capsys.readouterr().out
+    written = read_rinex_nav(out / "navigation.rnx")
+    assert sorted(written.sv) == sorted(sats.sv) and np.all(written.elements["CNAV"] == 1.0)
+    t = TOW0 + 38.0
+    gap_m = np.linalg.norm(
+        satellite_state(written.select(sats.sv, t), t).position_m - satellite_state(sats, t).position_m, axis=1
+    )
+    assert np.max(gap_m) < 0.05
     report = (out / "report.md").read_text().splitlines()
     cells = [c.strip() for c in next(line for line in report if line.startswith("| PRN")).split("|")]
     col = cells.index("ephemeris")

@@ -146,6 +146,58 @@ def test_the_mixed_navigation_file_holds_both_systems_decoded_records_and_correc
     np.testing.assert_allclose(tsc["GAUT"][:2], (GALILEO.utc.a0_s, GALILEO.utc.a1_s_s), rtol=5e-10)
 
 
+def test_the_mixed_rinex4_file_holds_the_same_records_and_corrections_as_records(decoded, tmp_path):
+    """``--rinex-version 4``: the RINEX 3.04 file's records and header lines, read back from
+    RINEX 4.00's EPH, ION and STO records by the project's RINEX 4 reader."""
+    from gnssframework.receiver.channels.records import TrackingResult
+    from gnssframework.receiver.navigation.receive import ReceiveResult
+    from gnssframework.receiver.navigation.receive_outputs import write_extra_outputs
+
+    ephemeris, iono, galileo, source = decoded
+    result = ReceiveResult(TrackingResult({}, [], 3.0, "scalar"), _observables(ephemeris, iono, galileo), None, None)
+    out3, out4 = tmp_path / "v3", tmp_path / "v4"
+    out3.mkdir(), out4.mkdir()
+    [v3], _ = write_extra_outputs(out3, result, None, frozenset({"rinex-nav"}), WEEK, 18, SIGNALS)
+    [v4], notes = write_extra_outputs(out4, result, None, frozenset({"rinex-nav"}), WEEK, 18, SIGNALS, "4.00")
+    assert notes == []
+    lines = v4.read_text().splitlines()
+    assert lines[0][:9].strip() == "4.00" and lines[0][20:60].rstrip() == "N: GNSS NAV DATA    M: MIXED"
+    heads = [ln for ln in lines if ln.startswith(">")]
+    assert sorted(h for h in heads if h.startswith("> EPH")) == sorted(
+        f"> EPH {sv} {'LNAV' if sv[0] == 'G' else 'INAV'}" for sv in source
+    )
+    # page 18 (ION, STO GPUT) and words 5, 6, 10 (ION, STO GAUT, STO GAGP), before the records
+    assert [h.split()[1] + " " + h.split()[3] for h in heads[:5]] == [
+        "ION LNAV",
+        "STO LNAV",
+        "ION IFNV",
+        "STO IFNV",
+        "STO IFNV",
+    ]
+    # The STO lines' columns (type, SBAS id, UTC id: 1X,A18 each) as DLR's BCEmerge writes them.
+    dlr = (Path(__file__).parents[1] / "data" / "BRD400DLR_S_20230710000_04H_MN.rnx").read_text().splitlines()
+    for code in ("GPUT", "GAUT", "GAGP"):
+        ours = next(ln for ln in lines if ln[24:28] == code and lines[lines.index(ln) - 1].startswith("> STO"))
+        theirs = next(ln for ln in dlr if ln[24:28] == code and dlr[dlr.index(ln) - 1].startswith("> STO"))
+        assert ours[23:].rstrip() == theirs[23:].rstrip(), code
+    a, b = read_rinex_nav(v3, systems="GE"), read_rinex_nav(v4, systems="GE")
+    a, b = a.subset(np.argsort(a.sv)), b.subset(np.argsort(b.sv))
+    np.testing.assert_array_equal(a.sv, b.sv)
+    np.testing.assert_array_equal(a.toc_s, b.toc_s)
+    for name in ELEMENTS + ("TGD", "Toe", "IDOT", "FNAV"):
+        np.testing.assert_array_equal(a.elements[name], b.elements[name], err_msg=name)
+    np.testing.assert_array_equal(a.health, b.health)
+    np.testing.assert_array_equal(a.iode, b.iode)
+    info3, info4 = read_nav_file_info(v3), read_nav_file_info(v4)
+    # D19.12 records hold the decoded page 18 (RINEX 3's D12.4 header lines round it).
+    assert info4.iono.alpha == pytest.approx(iono.alpha, rel=1e-12)
+    assert info4.iono.beta == pytest.approx(iono.beta, rel=1e-12)
+    assert info4.iono.alpha == pytest.approx(info3.iono.alpha, rel=5e-5)
+    assert info4.iono.dt_ls_s == info3.iono.dt_ls_s == 18
+    assert info4.ggto == pytest.approx(info3.ggto, rel=1e-12)  # GGTO from STO GAGP
+    assert (info4.first_s, info4.last_s) == (info3.first_s, info3.last_s)
+
+
 def test_a_record_of_the_wrong_system_for_its_key_is_refused(decoded, tmp_path):
     from gnssframework.errors import ConfigError
     from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav

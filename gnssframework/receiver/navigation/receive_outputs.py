@@ -2,7 +2,7 @@
 
 ``receive --outputs`` takes a comma-separated list of `OUTPUTS` (``default`` stands for
 `DEFAULT_OUTPUTS`, the cheap ones): ``rinex-nav`` the decoded ephemerides as RINEX 3.04
-(``navigation.rnx``, `rinex_nav`), ``gsa`` / ``gsv`` those NMEA sentences in ``nmea.txt``
+or 4.00 (``navigation.rnx``, `rinex_nav`, `rinex4_nav_out`; 4.00 for CNAV records), ``gsa`` / ``gsv`` those NMEA sentences in ``nmea.txt``
 (`nmea_out`), ``geojson`` / ``kml`` the track (``track.geojson``, ``track.kml``,
 `track_out`), ``parquet`` the per-channel tracking (``tracking.parquet``, `columnar_out`,
 needs pyarrow) and ``rtcm`` RTCM 3 MSM7 observations (``observations.rtcm3``, `rtcm_out`). The satellites in view of each fix (GSV) are those used in some fix, at the
@@ -28,11 +28,13 @@ from .fixes import PositionTable
 from .nmea_out import SkyView
 from .receive import ReceiveResult
 
-__all__ = ["OUTPUTS", "DEFAULT_OUTPUTS", "parse_outputs", "sky_views", "write_extra_outputs"]
+__all__ = ["OUTPUTS", "DEFAULT_OUTPUTS", "RINEX_NAV_VERSIONS", "parse_outputs", "sky_views", "write_extra_outputs"]
 
 #: Outputs that need an optional package: (module, the message when it is missing).
 _NEEDS = {"parquet": ("pyarrow", "the parquet output needs pyarrow: pip install 'gnssframework[columnar]'")}
 
+#: The RINEX versions navigation.rnx is written in (``--rinex-version`` 3 and 4).
+RINEX_NAV_VERSIONS = ("3.04", "4.00")
 #: Every output ``--outputs`` names.
 OUTPUTS = ("rinex-nav", "gsa", "gsv", "geojson", "kml", "parquet", "rtcm")
 #: Those written without ``--outputs``.
@@ -99,14 +101,20 @@ def write_extra_outputs(
     week: int,
     leap_seconds: int = 18,
     signal: SignalSpec = GPS_L1CA,
+    rinex_version: str | None = None,
 ) -> tuple[list[Path], list[str]]:
     """The files of ``outputs`` besides ``nmea.txt`` (whose GSA/GSV its writer adds), and a
-    note for each one that could not be written (no decoded ephemeris, unknown week)."""
+    note for each one that could not be written (no decoded ephemeris, unknown week).
+    ``rinex_version`` (``"3.04"``, ``"4.00"``) is navigation.rnx's; None: 3.04, or 4.00
+    where a record is from CNAV (RINEX 3.04 has no CNAV layout)."""
+    if rinex_version not in (None, *RINEX_NAV_VERSIONS):
+        raise ConfigError("rinex_version", f"{rinex_version!r}: one of {', '.join(RINEX_NAV_VERSIONS)}")
     out = Path(out_dir)
     written: list[Path] = []
     notes: list[str] = []
     obs = result.observables
     if "rinex-nav" in outputs:
+        from .rinex4_nav_out import write_rinex4_nav
         from .rinex_nav import RINEX_NAV_SYSTEMS, decoded_records, write_rinex_nav
 
         from .cnav_stream import carries_cnav
@@ -116,19 +124,25 @@ def write_extra_outputs(
             messages = {"E": "I/NAV", "C": "D1", "M": "LNAV, I/NAV or D1"}
             name = "CNAV" if cnav else messages.get(signal.system, "LNAV")
             notes.append(f"no ephemeris decoded from {name}: no navigation.rnx")
-        elif cnav:
-            # RINEX 3.04's GPS record is LNAV's: it has no place for CNAV's Adot, Delta n0 rate
-            # and ISC_L2C (RINEX 4's EPH CNAV record has; this writer does not write RINEX 4).
-            notes.append("CNAV records have no RINEX 3.04 layout (Adot, Delta n0 rate, ISC): no navigation.rnx")
         elif week < 0:
             notes.append("the GPS week is unknown: no navigation.rnx")
         elif signal.system not in RINEX_NAV_SYSTEMS:
             notes.append(f"no RINEX navigation layout for {signal.name}: no navigation.rnx")
         else:
             records = decoded_records(obs.ephemeris, obs.sample_time_s, obs.rx_time_s, week)
-            written.append(
-                write_rinex_nav(out / "navigation.rnx", records, obs.iono_utc, signal, obs.galileo, obs.bds_iono)
-            )
+            # RINEX 3.04's GPS record is LNAV's: no place for CNAV's Adot, Delta n0 rate and ISCs.
+            has_cnav = any(float(r.record.elements.get("CNAV", [0.0])[0]) == 1.0 for r in records)
+            version = rinex_version or ("4.00" if has_cnav else "3.04")
+            if has_cnav and version == "3.04":
+                notes.append(
+                    "CNAV records have no RINEX 3.04 layout (Adot, Delta n0 rate, ISC): no navigation.rnx "
+                    "(--rinex-version 4 writes them)"
+                )
+            else:
+                if has_cnav and rinex_version is None:
+                    notes.append("CNAV records: navigation.rnx is written as RINEX 4.00")
+                write = write_rinex4_nav if version == "4.00" else write_rinex_nav
+                written.append(write(out / "navigation.rnx", records, obs.iono_utc, signal, obs.galileo, obs.bds_iono))
     if "geojson" in outputs:
         from .track_out import write_geojson
 

@@ -280,14 +280,34 @@ def write_rinex_nav(
     """Write ``records`` (`decoded_records`) and the page 18 ``iono`` (GPS, QZSS), the
     I/NAV words 5, 6 and 10's ``galileo`` (Galileo) or D1's Klobuchar ``bds_iono`` (BeiDou,
     ``BDSA``/``BDSB``) as a RINEX 3.04 navigation file of ``signal``'s system (see the
-    module text).
+    module text); `rinex4_nav_out.write_rinex4_nav` writes them as RINEX 4.00 (CNAV records
+    too).
 
     Raises
     ------
     ConfigError
-        Without a record, for a system of another layout (SBAS, GLONASS), or for a record of
-        another system in a Galileo or BeiDou file.
+        Without a record, for a system of another layout (SBAS, GLONASS), for a record of
+        another system in a Galileo or BeiDou file, or for a CNAV record (no RINEX 3.04 layout).
     """
+    _check_records(records, signal)
+    cnav = [str(r.record.sv[0]) for r in records if float(r.record.elements.get("CNAV", np.zeros(1))[0]) == 1.0]
+    if cnav:
+        raise ConfigError(
+            "rinex_version",
+            f"{cnav[0]}: a CNAV record has no RINEX 3.04 layout (Adot, Delta n0 rate, ISC): write RINEX 4.00",
+        )
+    path = Path(path)
+    header = _header(records, iono, signal, galileo, bds_iono)
+    body = []
+    for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
+        body.append(_record_first_line(nav, signal))
+        body += _orbit_lines(nav, _system_of(signal, nav.prn))
+    path.write_text("".join(header + body))
+    return path
+
+
+def _check_records(records: list[NavRecord], signal: SignalSpec) -> None:
+    """Refuse what no navigation file of ``signal``'s system holds (`write_rinex_nav`'s Raises)."""
     if signal.system not in RINEX_NAV_SYSTEMS:
         raise ConfigError(
             "signal",
@@ -308,21 +328,19 @@ def write_rinex_nav(
                     else f"a {name} record as {signal.rinex_satellite(r.prn)}"
                 )
                 raise ConfigError("ephemeris", f"{sv}: {what}, not written in {signal.name}'s navigation file")
-    path = Path(path)
-    body = []
-    for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
-        rec = nav.record
-        if _system_of(signal, nav.prn) == "C":  # a BDT calendar: BDT week 0 at GPS week 1356
-            bdt_week, bdt_tow = _bdt(nav.week, nav.tow_s)
-            toc_week = _week_near(bdt_week, bdt_tow, float(rec.toc_s[0])) + BDT_WEEK_OFFSET
-        else:
-            toc_week = _week_near(nav.week, nav.tow_s, float(rec.toc_s[0]))
-        toc = _calendar(toc_week, float(rec.toc_s[0]))
-        body.append(
-            f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
-            + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
-            + "\n"
-        )
-        body += _orbit_lines(nav, _system_of(signal, nav.prn))
-    path.write_text("".join(_header(records, iono, signal, galileo, bds_iono) + body))
-    return path
+
+
+def _record_first_line(nav: NavRecord, signal: SignalSpec) -> str:
+    """A record's first line: satellite, Toc (BeiDou's in a BDT calendar), af0, af1, af2."""
+    rec = nav.record
+    if _system_of(signal, nav.prn) == "C":  # a BDT calendar: BDT week 0 at GPS week 1356
+        bdt_week, bdt_tow = _bdt(nav.week, nav.tow_s)
+        toc_week = _week_near(bdt_week, bdt_tow, float(rec.toc_s[0])) + BDT_WEEK_OFFSET
+    else:
+        toc_week = _week_near(nav.week, nav.tow_s, float(rec.toc_s[0]))
+    toc = _calendar(toc_week, float(rec.toc_s[0]))
+    return (
+        f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
+        + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
+        + "\n"
+    )
