@@ -1,5 +1,5 @@
-"""RINEX 4 navigation files (`navigation.rinex4_nav`), read from a real one (DLR's merged
-broadcast file, `tests/data/README.md`) against two independent truths: georinex's RINEX 3
+"""RINEX 4 navigation files (`navigation.rinex4_nav`), read from real ones (DLR's merged
+broadcast file and a station's file by sbf2rin, `tests/data/README.md`) against two independent truths: georinex's RINEX 3
 reader on the same records written as RINEX 3 (the layouts RINEX 4 kept), and the LNAV
 records of the same satellites for the CNAV records (two products of the control segment:
 a misread field moves a satellite by kilometres)."""
@@ -18,6 +18,7 @@ from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 
 DATA = Path(__file__).parents[1] / "data"
 BRD4 = DATA / "BRD400DLR_S_20230710000_04H_MN.rnx"
+KMS3 = DATA / "KMS300DNK_R_20221591000_01H_MN.rnx"
 #: The layouts RINEX 4 took over from RINEX 3 unchanged.
 RINEX3_MESSAGES = ("LNAV", "INAV", "FNAV", "D1", "D2")
 
@@ -53,12 +54,21 @@ def _key_order(eph) -> np.ndarray:
     return np.lexsort((eph.elements["FNAV"], eph.elements["Toe"], eph.toc_s, eph.sv))
 
 
-def test_shared_layouts_read_as_georinex_reads_them(tmp_path):
-    ours = read_rinex_nav(BRD4, "GJEC")  # a RINEX 4 file: `rinex4_nav`
-    ours = ours.subset(np.flatnonzero(ours.elements["CNAV"] == 0))
-    theirs = read_rinex_nav(_as_rinex3(BRD4, tmp_path / "brd3.rnx"), "GJEC")
-    # 13 GPS LNAV, 5 QZSS LNAV, 26 Galileo (13 I/NAV, 13 F/NAV), 15 BeiDou D1/D2 records.
-    assert ours.sv.size == theirs.sv.size == 59
+@pytest.mark.parametrize(
+    ("path", "count"),
+    [
+        # 13 GPS LNAV, 5 QZSS LNAV, 26 Galileo (13 I/NAV, 13 F/NAV), 15 BeiDou D1/D2 records.
+        (BRD4, 59),
+        # sbf2rin's (another producer: D exponents as E, ION records with a region code):
+        # 6 GPS LNAV, 28 Galileo, 4 BeiDou D1.
+        (KMS3, 38),
+    ],
+)
+def test_shared_layouts_read_as_georinex_reads_them(path, count, tmp_path):
+    ours = read_rinex_nav(path, "GJEC")  # a RINEX 4 file: `rinex4_nav`
+    ours = ours.subset(np.flatnonzero(ours.elements.get("CNAV", np.zeros(ours.sv.size)) == 0))
+    theirs = read_rinex_nav(_as_rinex3(path, tmp_path / "v3.rnx"), "GJEC")
+    assert ours.sv.size == theirs.sv.size == count
     a, b = ours.subset(_key_order(ours)), theirs.subset(_key_order(theirs))
     np.testing.assert_array_equal(a.sv, b.sv)
     np.testing.assert_array_equal(a.toc_s, b.toc_s)
@@ -131,6 +141,10 @@ def test_info_from_ion_and_sto_records():
     assert info.ggto == (1.073931343853e-08, 1.865174681370e-14, 86400.0, 2253)
     assert info.dates() == "2023-03-12 00:00:00 to 2023-03-12 04:00:00 GPS"
     assert is_rinex4(BRD4) and not is_rinex4(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx")
+    # sbf2rin's file: ION G29 LNAV (a ninth number, the region code) and STO E01 IFNV GAGP.
+    info = read_nav_file_info(KMS3)
+    assert info.iono.beta == (9.6256e04, 1.31072e05, -6.5536e04, -5.89824e05)
+    assert info.ggto == (3.201421350241e-09, -4.440892098501e-15, 259200.0, 2213)  # 2022-06-08: day 3
 
 
 def test_bad_lines_are_named(tmp_path):
