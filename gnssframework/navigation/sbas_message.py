@@ -36,9 +36,9 @@ A receiver knows neither
 Symbols are ±1 with bit 0 sent as +1 (the project's convention, as
 :mod:`~gnssframework.navigation.inav`). :func:`find_messages` decodes a stream; the encoder
 side (:func:`message_bits`, :func:`encode_messages`, :func:`sbas_symbols`) writes a
-message stream for the IF generator's ``data_bits``. Only the preamble, the message type
-and the CRC are read; the data field's contents (fast and long-term corrections, masks,
-ionospheric grid, GEO navigation) are not interpreted.
+message stream for the IF generator's ``data_bits``. The preamble, the message type and
+the CRC are read here; the data field's contents (masks, fast and long-term corrections,
+ionospheric grid, GEO navigation) by `sbas_content`.
 """
 
 from __future__ import annotations
