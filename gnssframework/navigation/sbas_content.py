@@ -71,6 +71,7 @@ __all__ = [
     "IonoDelays",
     "SbasContent",
     "decode_content",
+    "describe",
     "mask_satellite",
     "igp_band_grid",
     "SbasCorrections",
@@ -411,6 +412,34 @@ def decode_content(bits: np.ndarray) -> SbasContent:
             (raw % 16).astype(int),
         )
     return None
+
+
+def describe(content: SbasContent) -> str:
+    """One line saying what a decoded message holds (``sbas.csv``'s ``content`` column), e.g.
+    ``"mask IODP 3: 33 satellites"``; ``""`` for a type not interpreted."""
+    if isinstance(content, PrnMask):
+        return f"mask IODP {content.iodp}: {len(content.slots)} satellites"
+    if isinstance(content, FastCorrections):
+        last = content.first + len(content.prc_m)
+        return f"fast corrections IODF {content.iodf} IODP {content.iodp}: mask numbers {content.first + 1}-{last}"
+    if isinstance(content, Integrity):
+        return f"integrity IODF {' '.join(map(str, content.iodf))}"
+    if isinstance(content, FastDegradation):
+        return f"degradation factors IODP {content.iodp}, latency {content.latency_s} s"
+    if isinstance(content, GeoNavigation):
+        x, y, z = content.position_m
+        return f"GEO navigation t0 {content.t0_s:.0f} s: {x:.2f} {y:.2f} {z:.1f} m"
+    if isinstance(content, GeoAlmanac):
+        return f"GEO almanac t0 {content.t0_s:.0f} s: PRN {' '.join(str(e[1]) for e in content.entries)}"
+    if isinstance(content, IgpMask):
+        return f"IGP mask band {content.band} IODI {content.iodi}: {len(content.igps)} IGPs"
+    if isinstance(content, IonoDelays):
+        return f"ionospheric delays band {content.band} block {content.block} IODI {content.iodi}"
+    if isinstance(content, tuple):
+        return f"mixed corrections IODP {content[0].iodp}: {len(content[1])} long-term"
+    if isinstance(content, list):
+        return f"long-term corrections: mask numbers {' '.join(str(c.slot) for c in content)}"
+    return ""
 
 
 @dataclass

@@ -188,3 +188,17 @@ def test_mask_slots_name_their_satellites_and_bad_bits_are_refused():
         decode_content(bits)
     mask = IgpMask(1, 8, 0, (1, 2, 28))
     assert mask.grid().tolist() == [[-75.0, 140.0], [-65.0, 140.0], [-55.0, 145.0]]
+
+
+def test_each_type_read_is_described_in_one_line(log):
+    from gnssframework.navigation.sbas_content import describe
+
+    seen = {}
+    for _, _, bits in log:
+        seen.setdefault(parse_message(bits)[1], describe(decode_content(bits)))
+    assert seen[1] == "mask IODP 3: 33 satellites"  # G02-G32, S29 and S37
+    assert seen[4].endswith("mask numbers 27-39") and seen[9].startswith("GEO navigation t0 1600 s")
+    assert seen[17] == "GEO almanac t0 1600 s: PRN 129 137"
+    assert seen[25].startswith("long-term corrections: mask numbers")
+    assert seen[10] == seen[28] == seen[63] == ""  # not interpreted / null
+    assert all(text for mtype, text in seen.items() if mtype in (2, 3, 4, 7, 18, 26))

@@ -124,6 +124,10 @@ def test_track_sbas_l1_writes_the_messages_it_was_sent(tmp_path, capsys):
         assert int(r["message_type"]) == sm.parse_message(msgs[j])[1]
         truth_s = SAT.first_bit_edge_s() + (500 * j - SKIP) * 0.002 / code_rate
         assert abs(float(r["time_s"]) - truth_s) < tolerance_s
+    # The contents column: PRN 129's messages 1-3 are fast corrections 2 and 3 (under the
+    # log's mask, IODP 3) and a null message.
+    assert [r["content"][:16] for r in rows[:3]] == ["fast corrections", "fast corrections", ""]
+    assert rows[0]["content"].endswith("IODP 3: mask numbers 1-13") and rows[1]["content"].endswith("14-26")
     types = " ".join(r["message_type"] for r in rows)
     assert f"PRN 129: SBAS {len(rows)} messages (types {types}), 0 CRC failures" in text
     assert "sbas.csv" in text

@@ -10,8 +10,8 @@ one stream for :func:`~gnssframework.navigation.sbas_message.find_messages`; the
 one-period rows (before the bit edge is known) and a channel that loses lock end a run.
 
 A message's time is the recording time (``time_s``) of the row holding its first bit's
-first symbol: when the replica's symbol that carries it began. The messages' contents
-beyond the preamble and type are not interpreted.
+first symbol: when the replica's symbol that carries it began. ``sbas.csv``'s ``content``
+column says in one line what each message holds (`sbas_content.describe`).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.sbas_content import decode_content, describe
 from ...navigation.sbas_message import MESSAGE_SYMBOLS, SbasMessage, find_messages
 from ...signal.spec import SignalSpec
 from .inav_stream import symbol_runs
@@ -41,7 +42,7 @@ __all__ = [
 ]
 
 #: Columns of the ``track`` command's ``sbas.csv``: one row per message read.
-SBAS_COLUMNS = ("prn", "time_s", "row", "preamble", "message_type", "crc_ok", "inverted", "message_hex")
+SBAS_COLUMNS = ("prn", "time_s", "row", "preamble", "message_type", "crc_ok", "inverted", "message_hex", "content")
 
 
 def carries_sbas(signal: SignalSpec) -> bool:
@@ -128,6 +129,7 @@ def sbas_rows(channel: SbasChannel) -> list[dict]:
             "crc_ok": int(m.crc_ok),
             "inverted": int(m.inverted),
             "message_hex": m.hex,
+            "content": describe(decode_content(m.bits)) if m.crc_ok else "",
         }
         for m, r, t in zip(channel.messages, channel.rows, channel.times_s)
     ]
