@@ -95,7 +95,7 @@ CI_COST_S = {
     "scintillation_sweep": 51,
     "scintillation_rate_lock": 40,
     "tracking_threshold": 43,
-    "tracking_threshold_cn0_lock": 20,
+    "tracking_threshold_cn0_lock": 42,
     "deep_integration_budget_ins_straight_ci": 35,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
