@@ -1671,7 +1671,7 @@ def build_parser() -> argparse.ArgumentParser:
         "<out>.skipped.csv.",
         epilog=EXIT_STATUS_HELP,
     )
-    p.add_argument("file", help="RINEX 2.1x or 3.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
+    p.add_argument("file", help="RINEX 2.1x, 3.0x or 4.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
     p.add_argument(
         "--prn", required=True, help="satellites (G08 or G08,C11; g8 and 8 mean G08) or systems (G, GEC, all)"
     )

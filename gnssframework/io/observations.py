@@ -1,8 +1,9 @@
-"""Recorded observations as receivers write them: RINEX 2.1x and 3.0x, plain or
-Hatanaka-compressed, every constellation georinex reads, with loss-of-lock indicators,
-signal strength and the arcs they delimit.
+"""Recorded observations as receivers write them: RINEX 2.1x, 3.0x and 4.0x (Android's
+GnssLogger writes 4.01), plain or Hatanaka-compressed, every constellation georinex reads,
+with loss-of-lock indicators, signal strength and the arcs they delimit.
 
-Reading goes through georinex (both versions) after ``hatanaka`` has decompressed a
+Reading goes through georinex (2 and 3; a RINEX 4 file's observation records are 3.05's,
+so it is handed to georinex as 3.05) after ``hatanaka`` has decompressed a
 ``.crx``/``.crx.gz``/``.??d`` file; RINEX 3 files are first checked line by line
 (:func:`~gnssframework.io.rinex.check_rinex3_obs`) so that every problem names its line.
 """
@@ -270,8 +271,8 @@ def _version(path: Path, text: str) -> float:
         raise DataFileError(
             str(path), 1, f"{what}, not an observation file (RINEX type O, with the code and carrier this reads)"
         )
-    if not (2.0 <= version < 2.2 or 3.0 <= version < 4.0):
-        raise DataFileError(str(path), 1, f"RINEX version {version:g}: this reader reads 2.1x and 3.0x")
+    if not (2.0 <= version < 2.2 or 3.0 <= version < 5.0):
+        raise DataFileError(str(path), 1, f"RINEX version {version:g}: this reader reads 2.1x, 3.0x and 4.0x")
     return version
 
 
@@ -458,7 +459,10 @@ def read_observations(
     )
     with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:
         source = Path(tmpdir) / (path.name.split(".")[0] + (".rnx" if version >= 3 else ".obs"))
-        body = "\n".join(scan.lines) + "\n" if scan is not None else text
+        lines = list(scan.lines) if scan is not None else []
+        if version >= 4 and lines:  # georinex reads up to 3: RINEX 4's records are 3.05's
+            lines[0] = f"{'3.05':>9}" + lines[0][9:]
+        body = "\n".join(lines) + "\n" if scan is not None else text
         source.write_text(body)
         try:
             obs = _georinex_load(source, systems, meas)

@@ -184,11 +184,12 @@ def _check_bounds(pseudorange_min_m: float, pseudorange_max_m: float) -> None:
 
 
 def _header_end(lines: list[str], where: str) -> int:
-    """Index of END OF HEADER, after checking that the file is RINEX version 3."""
+    """Index of END OF HEADER, after checking that the file is RINEX version 3 or 4 (whose
+    observation records are 3.05's: RINEX 4.00 changed the header and navigation files)."""
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
         raise DataFileError(where, 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
-    if not lines[0][:9].strip().startswith("3"):
-        raise DataFileError(where, 1, f"RINEX version {lines[0][:9].strip()!r}: this reader checks version 3")
+    if not lines[0][:9].strip().startswith(("3", "4")):
+        raise DataFileError(where, 1, f"RINEX version {lines[0][:9].strip()!r}: this reader checks versions 3 and 4")
     try:
         return next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
     except StopIteration:

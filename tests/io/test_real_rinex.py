@@ -65,6 +65,25 @@ def test_phone_rinex_keeps_the_100ns_epochs_georinex_truncates():
     assert obs.epoch.size == 48 and obs.skipped == []
 
 
+def test_a_rinex4_observation_file_reads_as_its_3_05_records(tmp_path):
+    """RINEX 4.0x kept 3.05's observation records (GnssLogger writes 4.01 now): the phone's
+    file relabelled 4.01 reads to the same values, epochs and flags as the 3.03 original.
+    No real 4.0x observation file was at hand; this checks the reading path, not a
+    producer's 4.01 header."""
+    text = PIXEL.read_text()
+    relabelled = tmp_path / "pixel6_v401.26o"
+    relabelled.write_text(f"{'4.01':>9}" + text[9:])
+    ours, original = read_observations(relabelled, "all"), read_observations(PIXEL, "all")
+    assert ours.version == 4.01 and original.version == 3.03
+    np.testing.assert_array_equal(ours.epoch, original.epoch)
+    np.testing.assert_array_equal(ours.sv, original.sv)
+    for name in ("pseudorange_m", "carrier_m", "lli", "snr_dbhz", "ssi", "wavelength_m"):
+        np.testing.assert_array_equal(getattr(ours, name), getattr(original, name), err_msg=name)
+    (tmp_path / "v5.26o").write_text(f"{'5.00':>9}" + text[9:])
+    with pytest.raises(gf.DataFileError, match="RINEX version 5: this reader reads 2.1x, 3.0x and 4.0x"):
+        read_observations(tmp_path / "v5.26o", "G")
+
+
 def test_phone_glonass_wavelengths_follow_the_header_channels():
     obs = read_observations(PIXEL, "R")
     # Header: "R01  1 R02 -4 R03  5 R12 -1 R13 -2 R21  4"; L1 = 1602 + 0.5625 k MHz (GLONASS ICD).

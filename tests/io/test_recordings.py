@@ -37,6 +37,8 @@ KINDS = {
     "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
     "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav",
     "galileo_inav_20feb2022_05h.rnx": "rinex-nav",
+    "BRD400DLR_S_20230710000_04H_MN.rnx": "rinex-nav",
+    "KMS300DNK_R_20221591000_01H_MN.rnx": "rinex-nav",
 }
 
 
