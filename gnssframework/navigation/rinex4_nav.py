@@ -137,10 +137,22 @@ class Rinex4Record:
     line: int
 
 
+def _open_text(path: Path):
+    """The file as text, gunzipped where it is gzip (IGS distributes ``BRD400DLR...rnx.gz``)."""
+    import gzip
+
+    with path.open("rb") as fh:
+        gzipped = fh.read(2) == b"\x1f\x8b"
+    return gzip.open(path, "rt", errors="replace") if gzipped else path.open(errors="replace")
+
+
 def is_rinex4(path: str | Path) -> bool:
-    """Whether the file's first line gives RINEX version 4 or later."""
-    with Path(path).open(errors="replace") as fh:
-        first = fh.readline()
+    """Whether the file's first line (gzip or plain) gives RINEX version 4 or later."""
+    try:
+        with _open_text(Path(path)) as fh:
+            first = fh.readline()
+    except OSError:  # a corrupt gzip stream: not read here
+        return False
     try:
         return float(first[:9]) >= 4.0
     except ValueError:
@@ -208,7 +220,8 @@ def scan_rinex4_nav(path: str | Path) -> tuple[dict[str, str], list[Rinex4Record
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
-    lines = path.read_text(errors="replace").splitlines()
+    with _open_text(path) as fh:
+        lines = fh.read().splitlines()
     if not lines or not is_rinex4(path):
         raise DataFileError(str(path), 1, f"RINEX version {lines[0][:9].strip() if lines else ''!r}: not RINEX 4")
     if "NAV" not in lines[0][20:40].upper() and lines[0][20:21] != "N":

@@ -177,3 +177,15 @@ def test_the_simulator_takes_a_rinex4_files_lnav_records():
             sim.elements["sqrtA"][k] == eph.elements["sqrtA"][pick]
             and sim.elements["M0"][k] == eph.elements["M0"][pick]
         )
+
+
+def test_a_gzipped_file_reads_as_the_plain_one(tmp_path):
+    import gzip
+
+    packed = tmp_path / "BRD400DLR_S_20230710000_04H_MN.rnx.gz"  # as IGS distributes it
+    packed.write_bytes(gzip.compress(BRD4.read_bytes()))
+    assert is_rinex4(packed)
+    a, b = read_rinex_nav(packed, "GEC"), read_rinex_nav(BRD4, "GEC")
+    np.testing.assert_array_equal(a.sv, b.sv)
+    np.testing.assert_array_equal(a.elements["sqrtA"], b.elements["sqrtA"])
+    assert read_nav_file_info(packed).ggto == read_nav_file_info(BRD4).ggto
