@@ -191,17 +191,10 @@ def _record(path: str, head: int, kind: str, sv: str, message: str, lines: list[
     what = f"{kind} {sv} {message}"
     first = lines[0]
     where = (path, head + 1)
-    label = ""
-    if kind == "EPH":
-        epoch = _epoch(first[4:23], where, what)
-        values = _fields(first, 23, 3, where, what)
-    elif kind == "STO":
-        epoch = _epoch(first[4:23], where, what)
-        label = first[24:42].strip()
-        values = []
-    else:  # ION and EOP: an epoch and three numbers on the first line
-        epoch = _epoch(first[4:23], where, what)
-        values = _fields(first, 23, 3, where, what)
+    epoch = _epoch(first[4:23], where, what)
+    # STO: the offset's type after the epoch; EPH, ION, EOP: three numbers.
+    label = first[24:42].strip() if kind == "STO" else ""
+    values = [] if kind == "STO" else _fields(first, 23, 3, where, what)
     for k, line in enumerate(lines[1:], 2):
         values += _fields(line.rstrip("\n").ljust(80), 4, 4, (path, head + k), what)
     return Rinex4Record(kind, sv, message, epoch, tuple(values), label, head)
@@ -288,12 +281,10 @@ def klobuchar_of(records: list[Rinex4Record], system: str, message: str) -> tupl
     return None
 
 
-def time_offset_of(records: list[Rinex4Record], label: str) -> tuple[float, float, float, int] | None:
-    """``(A0 s, A1 s/s, reference s of week, reference GPS week)`` of the first ``STO``
-    record named ``label`` (``"GAGP"``)."""
+def time_offset_of(records: list[Rinex4Record], label: str) -> tuple[float, float, np.datetime64] | None:
+    """``(A0 s, A1 s/s, reference epoch)`` of the first ``STO`` record named ``label``
+    (``"GAGP"``)."""
     for r in records:
         if r.kind == "STO" and r.label == label and len(r.values) >= 3:
-            seconds = (r.epoch - np.datetime64("1980-01-06T00:00:00", "ns")) / np.timedelta64(1, "s")
-            week = int(seconds // 604800.0)
-            return float(r.values[1]), float(r.values[2]), float(seconds - week * 604800.0), week
+            return float(r.values[1]), float(r.values[2]), r.epoch
     return None

@@ -204,11 +204,17 @@ def _rinex4_info(path: Path) -> NavFileInfo:
         leap = 18  # as a RINEX 3 header without LEAP SECONDS (`_header_iono`)
     gps = klobuchar_of(records, "G", "LNAV") or klobuchar_of(records, "J", "LNAV")
     bds = klobuchar_of(records, "C", "D1D2")
+    offset = time_offset_of(records, "GAGP")
+    ggto = None
+    if offset is not None:  # the reference epoch as GPS seconds of week and week (GST's week is GPS's)
+        t0 = (offset[2] - _GPS_EPOCH) / np.timedelta64(1, "s")
+        week = int(t0 // WEEK_S)
+        ggto = (offset[0], offset[1], float(t0 - week * WEEK_S), week)
     return NavFileInfo(
         path,
         None if gps is None else IonoUtc(gps[0], gps[1], dt_ls_s=leap),  # type: ignore[arg-type]
         float(np.min(seconds)),
         float(np.max(seconds)),
-        time_offset_of(records, "GAGP"),
+        ggto,
         None if bds is None else BdsKlobuchar(bds[0], bds[1]),  # type: ignore[arg-type]
     )

@@ -80,18 +80,16 @@ __all__ = [
 _TWO_M31 = 2.0**-31
 
 
-def _field(bits: np.ndarray, first0: int, n: int, scale: float = 1.0, signed: bool = False) -> float:
-    """One field, ``first0`` the 0-based bit from the preamble (`bit_fields` counts from 1)."""
-    return decode_fields(bits, {"v": (first0 + 1, n, scale, signed)})["v"]
-
-
 def _fields(bits: np.ndarray, first0: int, n: int, count: int, scale: float = 1.0, signed: bool = False) -> np.ndarray:
-    """``count`` fields of ``n`` bits one after the other from ``first0``, as floats."""
-    idx = first0 + np.arange(count)[:, None] * n + np.arange(n)[None, :]
-    raw = (np.asarray(bits, np.int64)[idx] << np.arange(n - 1, -1, -1)).sum(axis=1)
-    if signed:
-        raw = np.where(raw >> (n - 1), raw - (1 << n), raw)
-    return raw.astype(float) * scale
+    """``count`` fields of ``n`` bits one after the other from ``first0`` (0-based from the
+    preamble; `bit_fields` counts from 1), as floats."""
+    layout = {str(k): (first0 + 1 + k * n, n, scale, signed) for k in range(count)}
+    return np.array(list(decode_fields(bits, layout).values()), dtype=float)
+
+
+def _field(bits: np.ndarray, first0: int, n: int, scale: float = 1.0, signed: bool = False) -> float:
+    """One field (`_fields`)."""
+    return float(_fields(bits, first0, n, 1, scale, signed)[0])
 
 
 def mask_satellite(slot: int) -> str:

@@ -32,10 +32,10 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.bds_iono import BdsKlobuchar
-from ...navigation.cnav_records import ura_ed_m
 from ...navigation.ephemeris import is_bds_geo
 from ...navigation.inav_params import InavIonoTime
 from ...navigation.lnav import IonoUtc
+from ...navigation.ura import ura_ed_m
 from ...navigation.weeks import full_week
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
@@ -46,6 +46,7 @@ from .rinex_nav import (
     _bdt,
     _calendar,
     _check_records,
+    _d19,
     _header,
     _line,
     _orbit_lines,
@@ -63,8 +64,7 @@ _URA_ED_M = np.array([ura_ed_m(int(k)) for k in _URA_ED_INDICES])
 
 def _field(value: float) -> str:
     """``D19.12``, blank where the value is not known (NaN)."""
-    value = float(value)
-    return " " * 19 if not np.isfinite(value) else f"{value:19.12E}".replace("E", "D")
+    return _d19(value) if np.isfinite(value) else " " * 19
 
 
 def _lines(rows: tuple[tuple[float, ...], ...]) -> list[str]:
