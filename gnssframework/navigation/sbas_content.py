@@ -443,13 +443,15 @@ def describe(content: SbasContent) -> str:
 @dataclass
 class SbasCorrections:
     """What a stream's messages add up to at its end (module text): the mask, each masked
-    satellite's latest fast correction (m), UDREI and the time of its message, its long-term
-    correction, and each band's monitored IGPs with their latest delays (m) and GIVEI.
+    satellite's latest fast correction (m), UDREI and the time of its message (and in
+    ``fast_previous`` the correction it replaced, for the range-rate correction), its
+    long-term correction, and each band's monitored IGPs with their latest delays (m) and GIVEI.
     ``ignored`` counts messages whose IODP or IODI did not match the mask they need (or that
     came before it)."""
 
     mask: PrnMask | None = None
     fast: dict[str, tuple[float, int, float]] = field(default_factory=dict)
+    fast_previous: dict[str, tuple[float, int, float]] = field(default_factory=dict)
     long_term: dict[str, LongTermCorrection] = field(default_factory=dict)
     igp_masks: dict[int, IgpMask] = field(default_factory=dict)
     iono: dict[tuple[int, float, float], tuple[float, int, float]] = field(default_factory=dict)
@@ -469,7 +471,10 @@ class SbasCorrections:
         assert self.mask is not None
         for k, (prc, u) in enumerate(zip(values, udrei)):
             if first + k < len(self.mask.slots):
-                self.fast[self.mask.satellites[first + k]] = (float(prc), int(u), t)
+                sat = self.mask.satellites[first + k]
+                if sat in self.fast and self.fast[sat][2] < t:
+                    self.fast_previous[sat] = self.fast[sat]
+                self.fast[sat] = (float(prc), int(u), t)
 
     def _long(self, corrections: list[LongTermCorrection]) -> None:
         for c in corrections:

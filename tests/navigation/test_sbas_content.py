@@ -104,6 +104,13 @@ def test_corrections_gathered_per_satellite(log):
         assert sum(sv.startswith("G") for sv in monitored) >= 4
         # A fast correction is metres (a clock or orbit error left after the broadcast one).
         assert all(abs(prc) < 5.0 for prc, _, _ in monitored.values())
+        # The correction each replaced (for the range-rate term) is an earlier message's, and
+        # a clock's correction moves centimetres a second, not metres.
+        previous = {sv: gathered.fast_previous[sv] for sv in monitored if sv in gathered.fast_previous}
+        assert len(previous) >= 4
+        for sv, (prc0, _, t0) in previous.items():
+            prc, _, t = monitored[sv]
+            assert 0 < t - t0 <= 60.0 and abs(prc - prc0) / (t - t0) < 0.1
         assert all(abs(c.daf0_s) * 299_792_458.0 < 20.0 for c in gathered.long_term.values())
         assert all(np.linalg.norm(c.dpos_m) < 30.0 for c in gathered.long_term.values())
         lats = [lat for (_, lat, _), (delay, givei, _) in gathered.iono.items() if givei < 15]

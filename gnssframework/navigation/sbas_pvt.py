@@ -1,0 +1,277 @@
+r"""SBAS-corrected positions of GPS L1 C/A pseudoranges, with DO-229's protection levels
+(RTCA DO-229 Appendix A, A.4.4, and Appendix J).
+
+Each GPS satellite in the SBAS mask with a fast and a long-term correction (the long-term
+one for the IODE of the record used) is corrected as A.4.4.3-A.4.4.8 say:
+
+- its position by the long-term correction :math:`\delta r + \delta\dot r\,(t - t_0)` and
+  its clock by :math:`\delta a_{f0} + \delta a_{f1} (t - t_0)` (type 25 with velocity code 1;
+  code 0 has no rates), added to the broadcast ones (IS-GPS-200's, T_GD applied);
+- its pseudorange by the fast correction
+  :math:`PRC(t_{of}) + RRC\,(t - t_{of})`, the range-rate correction
+  :math:`RRC = (PRC_{new} - PRC_{old}) / (t_{of,new} - t_{of,old})` of its last two
+  corrections (zero with one, or with ``range_rate=False``);
+- the ionosphere by the grid's slant delay at the pierce point and the troposphere by the
+  MOPS model (`sbas_iono`), both subtracted.
+
+A satellite whose UDREI is 14 or 15 (not monitored, do not use), whose fast correction is
+older than ``max_fast_age_s``, without a long-term correction of its IODE, or whose pierce
+point has no grid correction, is not used: the solution is DO-229's precision-approach one,
+with no broadcast-model fallback.
+
+The weights are :math:`w_i = 1/\sigma_i^2`,
+:math:`\sigma_i^2 = \sigma^2_{flt,i} + \sigma^2_{UIRE,i} + \sigma^2_{air,i} + \sigma^2_{tropo,i}`
+(J.1): :math:`\sigma^2_{flt} = \sigma^2_{UDRE}` (its degradation terms of types 7 and 10 are
+not applied), :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
+:math:`\sigma^2_{air} = \sigma^2_{noise} + \sigma^2_{multipath}` with
+:math:`\sigma_{multipath} = 0.13 + 0.53\,e^{-E/10°}` m (J.2.4) and a constant
+:math:`\sigma_{noise}` (``sigma_noise_m``; 0.36 m, an airborne accuracy designator A
+receiver's bound).
+
+With :math:`D = (G^T W G)^{-1}` in east, north, up and clock (rows of :math:`G`:
+:math:`[-u_{ENU}, 1]`), the protection levels are (J.1)
+
+.. math:: HPL = K_H\,\sqrt{\frac{d_E^2 + d_N^2}{2} + \sqrt{\Big(\frac{d_E^2 - d_N^2}{2}\Big)^2 + d_{EN}^2}},
+   \qquad VPL = K_V\,d_U
+
+with :math:`d_E^2 = D_{11}`, :math:`d_N^2 = D_{22}`, :math:`d_{EN} = D_{12}`,
+:math:`d_U^2 = D_{33}`, :math:`K_V = 5.33` and :math:`K_H = 6.0` (precision approach) or
+6.18 (en route to non-precision approach). GEO ranging and GLONASS corrections are not used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..signal.spec import SPEED_OF_LIGHT_M_S as _C
+from .ephemeris import Ephemerides, satellite_state, single_frequency_clock_s
+from .pvt import PositionFix, solve_position_sv
+from .sbas_content import SbasCorrections
+from .sbas_iono import (
+    GIVE_VARIANCE_M2,
+    UDRE_VARIANCE_M2,
+    grid_vertical_delay,
+    mops_troposphere,
+    sbas_pierce_point,
+)
+
+__all__ = [
+    "SbasFix",
+    "SBAS_MODES",
+    "K_V",
+    "K_H",
+    "protection_levels",
+    "sbas_satellite_corrections",
+    "solve_position_sbas",
+]
+
+#: Modes of the horizontal factor: precision approach, en route to non-precision approach.
+SBAS_MODES = ("pa", "npa")
+#: DO-229 J.1's factors of the vertical and horizontal protection levels.
+K_V = 5.33
+K_H = {"pa": 6.0, "npa": 6.18}
+
+
+@dataclass(frozen=True)
+class SbasFix:
+    """An SBAS-corrected epoch: the least-squares ``fix`` (`pvt.PositionFix`; its
+    ``used`` the satellites corrected and solved with), ``hpl_m`` and ``vpl_m`` (DO-229's
+    protection levels), and per satellite ``sigma_m`` (the total σ of the weights),
+    ``iono_m`` and ``troposphere_m`` (slant delays subtracted), ``fast_m`` (fast plus
+    range-rate correction added) and ``reason`` (``""`` where corrected, else why not)."""
+
+    fix: PositionFix
+    hpl_m: float
+    vpl_m: float
+    sigma_m: np.ndarray
+    iono_m: np.ndarray
+    troposphere_m: np.ndarray
+    fast_m: np.ndarray
+    reason: tuple[str, ...]
+
+
+def protection_levels(
+    azimuth_deg: np.ndarray, elevation_deg: np.ndarray, sigma_m: np.ndarray, mode: str = "pa"
+) -> tuple[float, float]:
+    """DO-229's HPL and VPL (m; module text) of satellites at these angles with these σ."""
+    if mode not in SBAS_MODES:
+        raise ConfigError("mode", f"one of {', '.join(SBAS_MODES)}, got {mode!r}")
+    az, el = np.radians(np.asarray(azimuth_deg, float)), np.radians(np.asarray(elevation_deg, float))
+    u = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=-1)
+    G = np.hstack([-u, np.ones((u.shape[0], 1))])
+    D = np.linalg.inv(G.T @ (G / np.square(np.asarray(sigma_m, float))[:, None]))
+    half_sum, half_diff = (D[0, 0] + D[1, 1]) / 2, (D[0, 0] - D[1, 1]) / 2
+    d_major = np.sqrt(half_sum + np.sqrt(half_diff**2 + D[0, 1] ** 2))
+    return float(K_H[mode] * d_major), float(K_V * np.sqrt(D[2, 2]))
+
+
+def _seconds_of_day_since(tow_s: np.ndarray, t0_s: float) -> np.ndarray:
+    """``tow_s``'s time of day minus ``t0_s`` (a time of day), wrapped to ±12 h."""
+    return (np.asarray(tow_s, float) % 86_400.0 - t0_s + 43_200.0) % 86_400.0 - 43_200.0
+
+
+def sbas_satellite_corrections(
+    corrections: SbasCorrections,
+    ephemeris: Ephemerides,
+    tow_s: np.ndarray,
+    *,
+    max_fast_age_s: float = 120.0,
+    range_rate: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Each record's long-term position (m, ECEF) and clock (s) corrections, its fast
+    correction (m, with the range-rate term), σ²_UDRE (m²) and why it has none (``""`` where
+    it has both; module text), at GPS times ``tow_s`` (``(S,)`` seconds of week)."""
+    tow = np.broadcast_to(np.asarray(tow_s, float), ephemeris.sv.shape)
+    n = tow.size
+    dpos, dclock, fast, var = np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.full(n, np.nan)
+    reasons = []
+    for i, sv in enumerate(np.asarray(ephemeris.sv).astype(str)):
+        got = corrections.fast.get(sv)
+        long = corrections.long_term.get(sv)
+        if not sv.startswith("G"):
+            reasons.append("not GPS")
+        elif got is None:
+            reasons.append("no fast correction")
+        elif got[1] >= 14:
+            reasons.append("not monitored" if got[1] == 14 else "do not use")
+        elif abs(tow[i] - got[2]) > max_fast_age_s:
+            reasons.append("fast correction too old")
+        elif long is None or long.iode != int(ephemeris.iode[i]):
+            reasons.append("no long-term correction of this IODE")
+        else:
+            reasons.append("")
+            dt = 0.0 if long.t0_s is None else float(_seconds_of_day_since(tow[i], long.t0_s))
+            dpos[i] = long.dpos_m + long.dvel_mps * dt
+            dclock[i] = long.daf0_s + long.daf1_s_s * dt
+            prc, _, t_of = got
+            old = corrections.fast_previous.get(sv)
+            rrc = (prc - old[0]) / (t_of - old[2]) if (range_rate and old is not None and t_of > old[2]) else 0.0
+            fast[i] = prc + rrc * (tow[i] - t_of)
+            var[i] = UDRE_VARIANCE_M2[got[1]]
+    return dpos, dclock, fast, var, tuple(reasons)
+
+
+def _iono_grid(corrections: SbasCorrections) -> dict[tuple[float, float], tuple[float, float]]:
+    """Monitored IGPs (latitude, longitude in [-180, 180)) to their delay and σ²_GIVE."""
+    grid = {}
+    for (_, lat, lon), (delay, givei, _) in corrections.iono.items():
+        if np.isfinite(delay) and givei < 15:
+            grid[(lat, (lon + 180.0) % 360.0 - 180.0)] = (delay, float(GIVE_VARIANCE_M2[givei]))
+    return grid
+
+
+def solve_position_sbas(
+    pseudorange_m: np.ndarray,
+    transmit_s: np.ndarray,
+    ephemeris: Ephemerides,
+    corrections: SbasCorrections,
+    *,
+    day_of_year: float,
+    mode: str = "pa",
+    sigma_noise_m: float = 0.36,
+    elevation_mask_deg: float = 5.0,
+    max_fast_age_s: float = 120.0,
+    range_rate: bool = True,
+    initial_ecef_m: np.ndarray | None = None,
+) -> SbasFix | None:
+    """One epoch's SBAS-corrected position and protection levels (module text).
+
+    Parameters
+    ----------
+    pseudorange_m, transmit_s, ephemeris
+        As `pvt.solve_position`'s: ``(S,)`` GPS L1 C/A pseudoranges and satellite times of
+        transmission (GPS seconds of week), and the ``S`` records of the satellites.
+    corrections
+        The SBAS messages received so far (`sbas_content.SbasCorrections`), their times in
+        the same GPS seconds of week.
+    day_of_year
+        Of the epoch (1-366), for the MOPS troposphere's season.
+    mode
+        One of `SBAS_MODES`: the horizontal protection level's factor.
+    sigma_noise_m
+        The receiver's code noise σ (m) in σ²_air.
+    elevation_mask_deg, initial_ecef_m
+        As `pvt.solve_position`'s.
+    max_fast_age_s, range_rate
+        A fast correction older than this is not used; apply the range-rate correction.
+
+    Returns
+    -------
+    SbasFix, or None with fewer than four corrected satellites.
+    """
+    if mode not in SBAS_MODES:
+        raise ConfigError("mode", f"one of {', '.join(SBAS_MODES)}, got {mode!r}")
+    if not sigma_noise_m > 0:
+        raise ConfigError("sigma_noise_m", f"must be positive, got {sigma_noise_m}")
+    if not 1 <= day_of_year <= 366:
+        raise ConfigError("day_of_year", f"1 to 366, got {day_of_year}")
+    pr, tx = np.asarray(pseudorange_m, float), np.asarray(transmit_s, float)
+    if pr.shape != tx.shape or pr.ndim != 1 or ephemeris.sv.size != pr.size:
+        raise ConfigError(
+            "solve_position_sbas",
+            f"pseudoranges {pr.shape}, transmit times {tx.shape} and "
+            f"{ephemeris.sv.size} ephemeris records must all be (S,)",
+        )
+    t = np.where(np.isfinite(tx), tx, 0.0)
+    carrier_hz = 1575.42e6
+    clock = single_frequency_clock_s(ephemeris, satellite_state(ephemeris, t), carrier_hz)
+    state = satellite_state(ephemeris, t - clock)
+    dpos, dclock, fast, var_flt, reasons = sbas_satellite_corrections(
+        corrections, ephemeris, t - clock, max_fast_age_s=max_fast_age_s, range_rate=range_rate
+    )
+    reasons = tuple("no pseudorange" if not np.isfinite(p) else r for p, r in zip(pr, reasons))
+    corrected = np.array([r == "" for r in reasons])
+    sv_pos = state.position_m + dpos
+    clock_m = _C * (single_frequency_clock_s(ephemeris, state, carrier_hz) + dclock)
+    pr_fast = np.where(corrected, pr + fast, np.nan)
+    letters = np.asarray(ephemeris.sv).astype("U1")
+    sigma0 = np.where(corrected, np.sqrt(np.nan_to_num(var_flt) + sigma_noise_m**2), 1.0)
+    first = solve_position_sv(
+        pr_fast, sv_pos, clock_m, letters, sigma_m=sigma0, false_alarm=0.0, initial_ecef_m=initial_ecef_m
+    )
+    if first is None:
+        return None
+    fix, iono, tropo, sigma, reasons_now = first, np.zeros(pr.size), np.zeros(pr.size), sigma0, list(reasons)
+    for _ in range(2):  # the pierce points and elevations of the fix, then once more
+        lat, lon, h = fix.lat_deg, fix.lon_deg, fix.height_m
+        el, az = fix.elevation_deg, fix.azimuth_deg
+        lat_pp, lon_pp, slant = sbas_pierce_point(lat, lon, az, el)
+        vertical, var_uive = grid_vertical_delay(lat_pp, lon_pp, _iono_grid(corrections))
+        iono, var_uire = slant * vertical, slant**2 * var_uive
+        tropo, var_tropo = mops_troposphere(lat, h, el, day_of_year)
+        multipath = 0.13 + 0.53 * np.exp(-el / 10.0)
+        var = np.nan_to_num(var_flt) + var_uire + sigma_noise_m**2 + multipath**2 + var_tropo
+        reasons_now = [
+            r if r or np.isfinite(iono[i]) else "no ionospheric grid correction" for i, r in enumerate(reasons)
+        ]
+        use = np.array([r == "" for r in reasons_now])
+        sigma = np.where(use, np.sqrt(np.where(use, var, 1.0)), 1.0)
+        again = solve_position_sv(
+            np.where(use, pr_fast - iono - tropo, np.nan),
+            sv_pos,
+            clock_m,
+            letters,
+            sigma_m=sigma,
+            elevation_mask_deg=elevation_mask_deg,
+            false_alarm=0.0,
+            initial_ecef_m=fix.position_ecef_m,
+        )
+        if again is None:
+            return None
+        fix = again
+    used = fix.used
+    hpl, vpl = protection_levels(fix.azimuth_deg[used], fix.elevation_deg[used], sigma[used], mode)
+    final = tuple(r if r or used[i] else "below the elevation mask" for i, r in enumerate(reasons_now))
+    return SbasFix(
+        fix,
+        hpl,
+        vpl,
+        np.where(used, sigma, np.nan),
+        np.where(used, iono, np.nan),
+        np.where(used, tropo, np.nan),
+        np.where(used, fast, np.nan),
+        final,
+    )
