@@ -1,0 +1,135 @@
+"""SBAS message files, for corrections gathered elsewhere than in the recording: RTKLIB's
+SBAS log (``.sbs``, written by ``convbin`` and ``str2str`` from a receiver's raw messages)
+and ESA's EGNOS Message Server files (``.ems``), read as RTKLIB 2.4.3's ``sbas.c`` reads
+them (learned from, not copied), and RTKLIB's log written.
+
+=========== ==================================================================================
+format      one line per message
+=========== ==================================================================================
+RTKLIB      ``week tow prn type : hex`` — GPS week, seconds of week, GEO PRN, message type, then
+            29 bytes: the message's first 226 bits (preamble, type, data) padded with zeros;
+            the CRC-24Q is not kept and is computed again here
+EMS         ``prn yy mm dd hh mm ss type hex`` — the time GPS time as RTKLIB takes it (two-digit
+            year: 19xx from 70), then the 250-bit message with its CRC (64 hex digits)
+=========== ==================================================================================
+
+A line of neither form is refused in one line naming the file and the line, as is a message
+of the EMS form whose CRC does not hold. Each record is a `SbasRecord`; its ``bits`` are the
+250 bits `sbas_content.decode_content` reads.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFileError
+from . import fec
+from .sbas_message import MESSAGE_BITS, parse_message
+
+__all__ = ["SbasRecord", "read_sbas_messages", "write_rtklib_sbs", "gathered_until"]
+
+_CRC_BITS = 226
+_GPS_EPOCH = _dt.datetime(1980, 1, 6)
+
+
+@dataclass(frozen=True)
+class SbasRecord:
+    """One message of a file: GPS ``week``, ``tow_s`` (seconds of week), the GEO's ``prn``,
+    its message ``type`` and its 250 ``bits`` (0/1, CRC included)."""
+
+    week: int
+    tow_s: float
+    prn: int
+    type: int
+    bits: np.ndarray = field(repr=False)
+
+
+def _with_crc(head: np.ndarray) -> np.ndarray:
+    crc = int(fec.crc24q_bits(head[:_CRC_BITS]))
+    return np.r_[head[:_CRC_BITS], (crc >> np.arange(23, -1, -1)) & 1].astype(np.uint8)
+
+
+def _bits(text: str) -> np.ndarray:
+    return np.unpackbits(np.frombuffer(bytes.fromhex(text), np.uint8))
+
+
+def _rtklib(parts: list[str], rest: str) -> tuple[int, float, int, np.ndarray]:
+    week, tow, prn = int(parts[0]), float(parts[1]), int(parts[2])
+    bits = _bits(rest.strip())
+    if bits.size < _CRC_BITS:
+        raise ValueError(f"{bits.size} bits, a message's first 226 are needed")
+    return week, tow, prn, _with_crc(bits)
+
+
+def _ems(parts: list[str]) -> tuple[int, float, int, np.ndarray]:
+    prn = int(parts[0])
+    yy, mo, dd, hh, mi = (int(p) for p in parts[1:6])
+    sec = float(parts[6])
+    year = yy + (2000 if yy < 70 else 1900)
+    t = _dt.datetime(year, mo, dd, hh, mi) + _dt.timedelta(seconds=sec)
+    seconds = (t - _GPS_EPOCH).total_seconds()
+    week = int(seconds // 604_800)
+    bits = _bits(parts[8])
+    if bits.size < MESSAGE_BITS:
+        raise ValueError(f"{bits.size} bits, an EMS message holds all 250")
+    bits = bits[:MESSAGE_BITS].astype(np.uint8)
+    if not parse_message(bits)[2]:
+        raise ValueError("its CRC-24Q does not hold")
+    return week, seconds - 604_800 * week, prn, bits
+
+
+def read_sbas_messages(path: str | Path) -> list[SbasRecord]:
+    """Every message of an RTKLIB ``.sbs`` log or an EMS file (module text), in file order."""
+    p = Path(path)
+    try:
+        lines = p.read_text().splitlines()
+    except OSError as exc:
+        raise DataFileError(str(p), None, f"cannot be read: {exc.strerror}") from None
+    out = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        head, colon, rest = line.partition(":")
+        parts = head.split() if colon else line.split()
+        try:
+            if colon and len(parts) == 4:
+                week, tow, prn, bits = _rtklib(parts, rest)
+            elif not colon and len(parts) == 9:
+                week, tow, prn, bits = _ems(parts)
+            else:
+                raise ValueError(
+                    "neither 'week tow prn type : hex' (RTKLIB) nor 'prn yy mm dd hh mm ss type hex' (EMS)"
+                )
+        except ValueError as exc:
+            raise DataFileError(str(p), number, f"not an SBAS message: {exc}") from None
+        out.append(SbasRecord(week, tow, prn, parse_message(bits)[1], bits))
+    return out
+
+
+def write_rtklib_sbs(path: str | Path, records: list[SbasRecord]) -> Path:
+    """Write ``records`` as RTKLIB's SBAS log (``week tow prn type : hex``, the message's
+    first 226 bits in 29 bytes), which RTKLIB's ``rnx2rtkp`` reads."""
+    p = Path(path)
+    rows = []
+    for r in records:
+        head = np.r_[np.asarray(r.bits[:_CRC_BITS], np.uint8), np.zeros(6, np.uint8)]
+        rows.append(
+            f"{r.week:4d} {int(round(r.tow_s)):6d} {r.prn:3d} {r.type:2d} : {np.packbits(head).tobytes().hex().upper()}"
+        )
+    p.write_text("\n".join(rows) + "\n")
+    return p
+
+
+def gathered_until(records: list[SbasRecord], week: int, tow_s: float, prn: int) -> list[tuple[float, int, np.ndarray]]:
+    """GEO ``prn``'s messages sent at or before ``week``, ``tow_s``, as
+    `sbas_content.SbasCorrections.from_messages` takes them: ``(seconds of week, PRN, bits)``,
+    their seconds counted from the start of ``week`` (negative for the week before)."""
+    return [
+        (r.tow_s + 604_800.0 * (r.week - week), r.prn, r.bits)
+        for r in records
+        if r.prn == prn and (r.week - week) * 604_800.0 + r.tow_s <= tow_s
+    ]
