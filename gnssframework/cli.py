@@ -756,6 +756,28 @@ def _raim_from_args(args: argparse.Namespace):
     return RaimOptions(method=args.raim, **given)
 
 
+def _sbas_from_args(args: argparse.Namespace):
+    """``receive --sbas-messages FILE [--sbas-prn N --sbas-mode M]`` as `sbas_fixes.SbasOptions`
+    (None without the file)."""
+    if not getattr(args, "sbas_messages", None):
+        for flag in ("sbas_prn", "sbas_mode", "sbas_sigma_noise"):
+            if getattr(args, flag, None) is not None:
+                raise ConfigError(f"--{flag.replace('_', '-')}", "is a setting of --sbas-messages: add it or drop this")
+        return None
+    from .navigation.sbas_files import read_sbas_messages
+    from .receiver.navigation.sbas_fixes import SbasOptions
+
+    if args.raim or getattr(args, "tracking", None) == "vector" or getattr(args, "nav_filter", None):
+        raise ConfigError(
+            "--sbas-messages",
+            "corrects the least-squares fixes of scalar tracking with DO-229's protection levels: "
+            "not with --raim, --tracking vector or --nav-filter",
+        )
+
+    noise = {} if args.sbas_sigma_noise is None else {"sigma_noise_m": args.sbas_sigma_noise}
+    return SbasOptions(tuple(read_sbas_messages(args.sbas_messages)), args.sbas_prn, args.sbas_mode or "pa", **noise)
+
+
 def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
     if not args.truth:
         return None
@@ -969,10 +991,14 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if "," in args.signal:
         if args.ionosphere_free:
             raise ConfigError("--ionosphere-free", "combines one signal with --second-signal: give one --signal")
+        if args.sbas_messages:
+            raise ConfigError("--sbas-messages", "SBAS L1 corrects GPS L1 C/A fixes: give --signal gps-l1ca alone")
         return _receive_several(args, live, outputs)
     signal = _signal_from_args(args)
     require_positioning(signal)  # dated from LNAV, I/NAV or CNAV: another message would be misread
     dual = _check_ionosphere_free(args, signal)  # refused before any tracking
+    if dual is not None and args.sbas_messages:
+        raise ConfigError("--sbas-messages", "SBAS L1 corrects single-frequency fixes: not with --ionosphere-free")
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
@@ -989,6 +1015,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
     raim = _raim_from_args(args)
+    sbas = _sbas_from_args(args)
     if args.ephemeris and signal.system not in EPHEMERIS_SYSTEMS:
         raise ConfigError(
             "--ephemeris",
@@ -1079,6 +1106,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             weighting=args.weighting,
             signal=signal,
             raim=raim,
+            sbas=sbas,
             observe=fixes.observe if fixes is not None and vector is None else None,
             smooth=args.smooth,
             workers=args.workers,
@@ -1864,6 +1892,33 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="P",
         help="with --raim: missed-detection probability of the protection levels (default 1e-3)",
     )
+    p.add_argument(
+        "--sbas-messages",
+        metavar="FILE",
+        help="SBAS messages (RTKLIB .sbs log or EGNOS Message Server .ems file) correcting the GPS L1 C/A "
+        "least-squares fixes as RTCA DO-229 says (positions.csv columns hpl_m, vpl_m, sbas_sats; an "
+        "epoch the corrections do not cover keeps its broadcast fix with sbas_sats 0)",
+    )
+    p.add_argument(
+        "--sbas-prn",
+        type=int,
+        metavar="PRN",
+        help="with --sbas-messages: the GEO followed (default: the file's busiest)",
+    )
+    p.add_argument(
+        "--sbas-sigma-noise",
+        type=float,
+        metavar="M",
+        help="with --sbas-messages: the code noise (m) in the protection levels' sigma_air (default 0.36, "
+        "DO-229's airborne bound for carrier-smoothed code; this receiver's unsmoothed code has about "
+        "1.7 m at 45 dB-Hz)",
+    )
+    p.add_argument(
+        "--sbas-mode",
+        choices=("pa", "npa"),
+        help="with --sbas-messages: the horizontal protection level's factor, precision approach (6.0, "
+        "the default) or en route to non-precision approach (6.18)",
+    )
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
     p.add_argument(
         "--tracking",
@@ -1982,6 +2037,11 @@ OPTION_OF_PARAMETER = {
     "pseudorange_min_m": "--pseudorange-min",
     "pseudorange_max_m": "--pseudorange-max",
     "raim": "--raim",
+    "sbas": "--sbas-messages",
+    "sbas_messages": "--sbas-messages",
+    "sbas_mode": "--sbas-mode",
+    "sbas_prn": "--sbas-prn",
+    "sbas_sigma_noise": "--sbas-sigma-noise",
     "smooth": "--smooth",
     "raim_false_alarm": "--raim-pfa",
     "raim_missed_detection": "--raim-pmd",

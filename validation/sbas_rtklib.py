@@ -50,16 +50,15 @@ import pymap3d
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "tests"))  # the tests' SBAS stream writer
 from gps_sdr_sim_run import Checks  # noqa: E402
 from rtklib_loss_of_lock import parse_pos  # noqa: E402
+from sbas_streams import sbas_stream, vertical_delay_m  # noqa: E402
 
 from gnssframework.io.rinex import write_rinex3_obs  # noqa: E402
-from gnssframework.navigation import sbas_encode as enc  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state, single_frequency_clock_s  # noqa: E402
-from gnssframework.navigation.sbas_content import igp_band_grid  # noqa: E402
 from gnssframework.navigation.sbas_files import SbasRecord, write_rtklib_sbs  # noqa: E402
 from gnssframework.navigation.sbas_iono import mops_troposphere, sbas_pierce_point  # noqa: E402
-from gnssframework.navigation.sbas_message import parse_message  # noqa: E402
 
 DATA = HERE.parent / "tests" / "data"
 NAV = DATA / "07590920.05n"
@@ -70,8 +69,6 @@ GEO_PRN = 137
 CLOCK_RX_S = 1e-4
 C = 299_792_458.0
 OMEGA_E = 7.2921151467e-5
-BANDS = {7: (110, 135), 8: (140, 170)}  # longitudes (deg) of the monitored columns
-IGP_LATS = (15, 55)
 RTKLIB_OPTIONS = {
     "pos1-posmode": "single",
     "pos1-navsys": "1",
@@ -87,11 +84,6 @@ RTKLIB_OPTIONS = {
     "out-timendec": "3",
 }
 AIM_M = 0.01
-
-
-def vertical_delay_m(lat_deg, lon_deg):
-    """The scenario's ionosphere: a plane (m at L1), a multiple of 0.125 m at every IGP."""
-    return 3.0 + 0.025 * (np.asarray(lat_deg) - 35.0) - 0.025 * (np.asarray(lon_deg) - 140.0)
 
 
 def day_of_year(tow_s: float) -> float:
@@ -113,12 +105,7 @@ def scenario():
         "dclock_s": 2.0**-31 * rng.integers(-71, 72, n),
         "fast_m": 0.125 * rng.integers(-40, 41, n),
     }
-    igps = {}
-    for band, (west, east) in BANDS.items():
-        grid = igp_band_grid(band)
-        pick = (grid[:, 0] >= IGP_LATS[0]) & (grid[:, 0] <= IGP_LATS[1]) & (grid[:, 1] >= west) & (grid[:, 1] <= east)
-        igps[band] = np.flatnonzero(pick) + 1  # mask numbers, ascending
-    return eph, errors, igps
+    return eph, errors
 
 
 def pseudoranges(eph, errors) -> np.ndarray:
@@ -145,42 +132,19 @@ def pseudoranges(eph, errors) -> np.ndarray:
     return np.array(out)
 
 
-def sbas_stream(eph, errors, igps) -> list[SbasRecord]:
+def stream(eph, errors) -> list[SbasRecord]:
     """One message a second from 120 s before the first epoch to the last (module text)."""
-    slots = [int(s[1:]) for s in eph.sv]  # GPS PRN n is mask slot n
-    iodp, iodi = 1, 2
-    long_term = [
-        (k + 1, int(eph.iode[k]), errors["dpos_m"][k], float(errors["dclock_s"][k])) for k in range(eph.sv.size)
-    ]
-    content = [enc.mask_message(slots, iodp)]
-    content += [enc.long_term_message(long_term[i : i + 4], iodp) for i in range(0, len(long_term), 4)]
-    for band, mask in igps.items():
-        content.append(enc.igp_mask_message(len(igps), band, iodi, mask.tolist()))
-    for band, mask in igps.items():
-        grid = igp_band_grid(band)[mask - 1]
-        delay = vertical_delay_m(grid[:, 0], grid[:, 1])
-        for block in range(int(np.ceil(mask.size / 15))):
-            part = delay[15 * block : 15 * block + 15]
-            content.append(enc.iono_message(band, block, iodi, part.tolist(), [5] * part.size))
-    records, nxt = [], 0
     last = TOW0 + (N_EPOCHS - 1) * STEP_S
-    for i, tow in enumerate(np.arange(TOW0 - 120.0, last + 1.0)):
-        if i % 6 == 0:
-            bits = enc.fast_message(2, (i // 6) % 3, iodp, errors["fast_m"].tolist(), [4] * eph.sv.size, i % 3)
-        else:
-            bits = content[nxt % len(content)].copy()
-            nxt += 1
-        records.append(SbasRecord(WEEK, float(tow), GEO_PRN, parse_message(bits)[1], bits))
-    return records
+    return sbas_stream(eph, errors["dpos_m"], errors["dclock_s"], errors["fast_m"], WEEK, TOW0 - 120.0, last, GEO_PRN)
 
 
 def write_files(work: Path) -> tuple[Path, Path]:
-    eph, errors, igps = scenario()
+    eph, errors = scenario()
     pr = pseudoranges(eph, errors)
     obs = {str(s): (pr[:, k], pr[:, k] / 0.19029367279836487) for k, s in enumerate(eph.sv)}
     obs_path = work / "sbas_sim_0759.rnx"
     write_rinex3_obs(obs_path, START, STEP_S, obs, tuple(RECEIVER))
-    sbs_path = write_rtklib_sbs(work / "sbas_sim_0759.sbs", sbas_stream(eph, errors, igps))
+    sbs_path = write_rtklib_sbs(work / "sbas_sim_0759.sbs", stream(eph, errors))
     return obs_path, sbs_path
 
 

@@ -28,9 +28,10 @@ import numpy as np
 
 from ..errors import DataFileError
 from . import fec
+from .sbas_content import SbasCorrections, decode_content
 from .sbas_message import MESSAGE_BITS, parse_message
 
-__all__ = ["SbasRecord", "read_sbas_messages", "write_rtklib_sbs", "gathered_until"]
+__all__ = ["SbasRecord", "read_sbas_messages", "write_rtklib_sbs", "gathered_until", "busiest_prn", "SbasReplay"]
 
 _CRC_BITS = 226
 _GPS_EPOCH = _dt.datetime(1980, 1, 6)
@@ -133,3 +134,68 @@ def gathered_until(records: list[SbasRecord], week: int, tow_s: float, prn: int)
         for r in records
         if r.prn == prn and (r.week - week) * 604_800.0 + r.tow_s <= tow_s
     ]
+
+
+def busiest_prn(records: list[SbasRecord]) -> int:
+    """The GEO PRN with the most messages in ``records`` (the lowest on a tie)."""
+    if not records:
+        raise ValueError("no SBAS messages")
+    prns, counts = np.unique([r.prn for r in records], return_counts=True)
+    return int(prns[np.argmax(counts)])
+
+
+class SbasReplay:
+    """One GEO's messages replayed in time order: `at` gives what they add up to at an epoch,
+    decoding each message once (epochs must not go back in time).
+
+    Parameters
+    ----------
+    records
+        Messages of any GEOs (`read_sbas_messages`); only ``prn``'s are used.
+    prn
+        The GEO followed (default `busiest_prn`).
+    history_s
+        Messages more than this before the first epoch asked for are skipped (1800 s, the
+        age RTKLIB gives long-term corrections; masks and the IGP grid come more often).
+    """
+
+    def __init__(self, records: list[SbasRecord], prn: int | None = None, history_s: float = 1800.0) -> None:
+        self.prn = busiest_prn(records) if prn is None else int(prn)
+        mine = [r for r in records if r.prn == self.prn]
+        if not mine:
+            raise ValueError(f"no message of SBAS PRN {self.prn}")
+        mine.sort(key=lambda r: 604_800.0 * r.week + r.tow_s)
+        self._records = mine
+        self._next = 0
+        self._history_s = history_s
+        self._last = -np.inf
+        self.corrections = SbasCorrections()
+
+    def week_of(self, tow_s: float) -> int:
+        """The week of the message nearest ``tow_s`` seconds into its week (for observables
+        whose week was not decoded)."""
+        gaps = [abs((r.tow_s - tow_s + 302_400.0) % 604_800.0 - 302_400.0) for r in self._records]
+        return self._records[int(np.argmin(gaps))].week
+
+    def at(self, week: int, tow_s: float) -> SbasCorrections:
+        """The corrections of the messages sent at or before ``week``, ``tow_s`` (their times
+        in seconds of ``week``, as `sbas_pvt.solve_position_sbas` compares them)."""
+        now = 604_800.0 * week + tow_s
+        if now < self._last:
+            raise ValueError(f"SBAS replay asked for {tow_s:.3f} s after {self._last - 604_800.0 * week:.3f} s")
+        if self._next == 0:  # the first epoch: skip what is too old to matter
+            while (
+                self._next < len(self._records)
+                and 604_800.0 * self._records[self._next].week + (self._records[self._next].tow_s)
+                < now - self._history_s
+            ):
+                self._next += 1
+        while self._next < len(self._records):
+            r = self._records[self._next]
+            t = 604_800.0 * r.week + r.tow_s
+            if t > now:
+                break
+            self.corrections.add(t - 604_800.0 * week, r.prn, decode_content(r.bits))
+            self._next += 1
+        self._last = now
+        return self.corrections

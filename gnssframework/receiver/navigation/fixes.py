@@ -8,13 +8,15 @@ week placed in the era of the RINEX file when one is given, else in the era that
 on 2019-04-07 (weeks 2048-3071, IS-GPS-200 20.3.3.3.1.1: the week rolls over every 1024).
 With ``raim`` each fix carries its integrity (`navigation.integrity`): the table and
 ``positions.csv`` then add the columns `INTEGRITY_COLUMNS`; fixes of several systems'
-satellites the column `SYSTEM_OFFSET_COLUMN`.
+satellites the column `SYSTEM_OFFSET_COLUMN`. With ``sbas`` (messages from a file,
+`sbas_fixes`) each GPS L1 C/A fix is DO-229's SBAS-corrected one where the corrections
+cover the epoch: the columns `sbas_fixes.SBAS_COLUMNS`.
 """
 
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +28,9 @@ from ...navigation.weeks import full_week as nearest_week
 from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
+from .sbas_fixes import SBAS_COLUMNS, SbasOptions, day_of_year
 from ...navigation.pvt import PositionFix, solve_position
+from ...navigation.sbas_pvt import solve_position_sbas
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
@@ -151,6 +155,7 @@ def solve_epochs(
     integrity_risk: float = 1e-7,
     time_offsets_s: dict[str, float] | None = None,
     dual: DualFrequency | None = None,
+    sbas: SbasOptions | None = None,
 ) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
@@ -168,7 +173,18 @@ def solve_epochs(
     ``dual``: ``obs``'s pseudoranges are this ionosphere-free combination
     (`dual_frequency.DualFrequency`, `dual_observables.ionosphere_free_observables`), solved
     with its satellite clock and no ionospheric correction.
+    ``sbas``: SBAS corrections from a message file (`sbas_fixes`; GPS L1 C/A only, not with
+    ``raim`` or ``dual``): the columns `SBAS_COLUMNS`.
     """
+    if sbas is not None and (raim is not None or dual is not None or signal is not GPS_L1CA):
+        raise ConfigError(
+            "sbas",
+            "SBAS L1 corrects single-frequency GPS L1 C/A fixes: not with raim, a dual-frequency combination "
+            f"or {signal.name}",
+        )
+    replay = sbas.replay() if sbas is not None else None
+    sbas_rows: list[tuple[float, float, int]] = []
+    sbas_week: int | None = None
     # GPS's page 18 first (for every satellite, as RTKLIB); else BeiDou's D1 coefficients
     # by its own model (`bds_iono`).
     klobuchar = (iono or obs.iono_utc or obs.bds_iono) if ionosphere else None
@@ -204,6 +220,32 @@ def solve_epochs(
             time_offsets_s=time_offsets_s,
             dual=dual,
         )
+        if replay is not None:
+            records_used = Ephemerides.concatenate([records[j] for j in have])
+            tow_e = float(obs.rx_time_s[e])
+            if sbas_week is None:  # the observables' week, else (not decoded) the messages'
+                sbas_week = week if week >= 0 else replay.week_of(tow_e)
+            corrected = solve_position_sbas(
+                obs.pseudorange_m[e, idx],
+                obs.transmit_s[e, idx],
+                records_used,
+                replay.at(sbas_week, tow_e),
+                day_of_year=day_of_year(sbas_week, tow_e),
+                mode=sbas.mode if sbas is not None else "pa",
+                sigma_noise_m=sbas.sigma_noise_m if sbas is not None else 0.36,
+                elevation_mask_deg=elevation_mask_deg,
+                initial_ecef_m=fix.position_ecef_m if fix is not None else None,
+            )
+            if corrected is not None:
+                motion = (
+                    {}
+                    if fix is None
+                    else {"velocity_enu_mps": fix.velocity_enu_mps, "clock_drift_mps": fix.clock_drift_mps}
+                )
+                fix = replace(corrected.fix, **motion)
+                sbas_rows.append((corrected.hpl_m, corrected.vpl_m, int(corrected.fix.used.sum())))
+            elif fix is not None:
+                sbas_rows.append((np.nan, np.nan, 0))
         if fix is None:
             continue
         rows.append(fix)
@@ -237,6 +279,9 @@ def solve_epochs(
             vpl_m=np.array([f.vpl_m for f in rows], float),
             raim=np.array([f.raim for f in rows], dtype="<U11"),
         )
+    if replay is not None:
+        table = np.array(sbas_rows, float).reshape(-1, 3)
+        columns.update(hpl_m=table[:, 0], vpl_m=table[:, 1], sbas_sats=table[:, 2].astype(int))
     return PositionTable(
         columns,
         np.array([f.position_ecef_m for f in rows]).reshape(-1, 3),
@@ -268,6 +313,7 @@ def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
     names = (
         POSITION_COLUMNS
         + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ())
+        + (SBAS_COLUMNS if set(SBAS_COLUMNS) <= set(table.columns) else ())
         + ((SYSTEM_OFFSET_COLUMN,) if SYSTEM_OFFSET_COLUMN in table.columns else ())
     )
     with path.open("w", newline="") as fh:
@@ -277,7 +323,7 @@ def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
             w.writerow(
                 [
                     int(table.columns[c][k])
-                    if c in ("gps_week", "n_sats")
+                    if c in ("gps_week", "n_sats", "sbas_sats")
                     else str(table.columns[c][k])
                     if c == "raim"
                     else f"{table.columns[c][k]:.{digits.get(c, 3)}f}"

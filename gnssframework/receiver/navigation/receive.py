@@ -35,6 +35,7 @@ from .filtered import filter_epochs
 from .decoded import LNAV, navigation_message
 from .inav_stream import require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
+from .sbas_fixes import SbasOptions
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
@@ -80,6 +81,7 @@ def receive(
     observe: Callable[[SampleTracker], Any] | None = None,
     smooth: bool = False,
     workers: int | str | None = None,
+    sbas: SbasOptions | None = None,
 ) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
@@ -110,7 +112,17 @@ def receive(
     come, `live.LiveFixes`, read its records from ``progress``). ``workers`` (a number, or
     ``"auto"``: the cores available) tracks the scalar channels in that many forked
     processes (`channels.groups.track_in_groups`: the same records); one process with
-    ``vector``, ``observe`` or a live stream."""
+    ``vector``, ``observe`` or a live stream. ``sbas`` corrects the least-squares fixes with
+    SBAS messages from a file (`sbas_fixes.SbasOptions`; GPS L1 C/A, scalar tracking, no
+    ``nav_filter`` and no ``raim``): positions gain the columns `sbas_fixes.SBAS_COLUMNS`."""
+    if sbas is not None and (vector is not None or nav_filter is not None or raim is not None):
+        raise ConfigError(
+            "sbas",
+            "SBAS corrects the least-squares fixes of scalar tracking with its own protection levels: "
+            "not with vector, nav_filter or raim",
+        )
+    if sbas is not None and signal is not GPS_L1CA:
+        raise ConfigError("sbas", f"SBAS L1 corrects GPS L1 C/A fixes, not {signal.name}")
     message = navigation_message(signal)  # dates the channels: LNAV subframes, the I/NAV GST
     resolve_workers(workers, 1)  # a bad value refused before any work
     if rinex is not None:  # only records that give this signal's user a clock (E5a: F/NAV's)
@@ -223,6 +235,7 @@ def receive(
         weighting=weighting,
         signal=signal,
         **_raim_args(raim),
+        sbas=sbas,
     )
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
