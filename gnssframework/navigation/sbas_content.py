@@ -15,6 +15,10 @@ type      fields (first bit, bits, scale)
 6         integrity: IODF of types 2-5 (14 + 2 k, 2), 51 UDREI (22 + 4 k, 4)
 7         fast-correction degradation: system latency (14, 4, 1 s), IODP (18, 2), 51 degradation
           factor indicators a_i (22 + 4 k, 4)
+10        degradation parameters (1-based bits as DO-229 A.4.4.6 numbers them, ``Layout`` of
+          `DEGRADATION_LAYOUT`): B_rrc, C_ltc_lsb, C_ltc_v1, I_ltc_v1, C_ltc_v0, I_ltc_v0,
+          C_geo_lsb, C_geo_v, I_geo, C_er, C_iono_step, I_iono, C_iono_ramp, RSS_UDRE,
+          RSS_iono, C_covariance
 9         GEO navigation: IODN (14, 8), t0 (22, 13, 16 s of day), URA (35, 4), X, Y (39, 69:
           30, 0.08 m), Z (99, 25, 0.4 m), Ẋ, Ẏ (124, 141: 17, 0.000625 m/s), Ż (158, 18, 0.004
           m/s), Ẍ, Ÿ (176, 186: 10, 0.0000125 m/s²), Z̈ (196, 10, 0.0000625 m/s²), a_Gf0 (206,
@@ -45,7 +49,7 @@ north and south. Each is generated here by that rule and numbered as the mask nu
 `SbasCorrections.from_messages` gathers a stream's messages into what a user would apply at
 its end: each masked satellite's latest fast correction and UDREI, its long-term correction
 and each monitored IGP's delay, where the message's IODP or IODI matches the mask's.
-Types 10, 12, 27, 28 and the rest are not interpreted here (`decode_content` returns None).
+Types 12, 27, 28 and the rest are not interpreted here (`decode_content` returns None).
 The field positions follow DO-229 as RTKLIB's ``sbas.c`` reads them (learned from, not
 copied); the checks are in `tests/navigation/test_sbas_content.py`.
 """
@@ -64,6 +68,8 @@ __all__ = [
     "FastCorrections",
     "Integrity",
     "FastDegradation",
+    "DegradationParameters",
+    "DEGRADATION_LAYOUT",
     "GeoNavigation",
     "GeoAlmanac",
     "IgpMask",
@@ -176,6 +182,50 @@ class FastDegradation:
     latency_s: int
     iodp: int
     ai: np.ndarray = field(repr=False)
+
+
+#: Type 10's fields: name -> (first bit, 1-based from the preamble; bits; scale; signed).
+DEGRADATION_LAYOUT = {
+    "brrc_m": (15, 10, 0.002, False),
+    "cltc_lsb_m": (25, 10, 0.002, False),
+    "cltc_v1_mps": (35, 10, 0.00005, False),
+    "iltc_v1_s": (45, 9, 1.0, False),
+    "cltc_v0_m": (54, 10, 0.002, False),
+    "iltc_v0_s": (64, 9, 1.0, False),
+    "cgeo_lsb_m": (73, 10, 0.0005, False),
+    "cgeo_v_mps": (83, 10, 0.00005, False),
+    "igeo_s": (93, 9, 1.0, False),
+    "cer_m": (102, 6, 0.5, False),
+    "ciono_step_m": (108, 10, 0.001, False),
+    "iiono_s": (118, 9, 1.0, False),
+    "ciono_ramp_mps": (127, 10, 0.000005, False),
+    "rss_udre": (137, 1, 1.0, False),
+    "rss_iono": (138, 1, 1.0, False),
+    "ccovariance": (139, 7, 0.1, False),
+}
+
+
+@dataclass(frozen=True)
+class DegradationParameters:
+    """Type 10: the parameters of DO-229 A.4.5's degradation terms (names of
+    `DEGRADATION_LAYOUT`: metres, seconds, m/s; the two RSS flags 0 or 1)."""
+
+    brrc_m: float
+    cltc_lsb_m: float
+    cltc_v1_mps: float
+    iltc_v1_s: float
+    cltc_v0_m: float
+    iltc_v0_s: float
+    cgeo_lsb_m: float
+    cgeo_v_mps: float
+    igeo_s: float
+    cer_m: float
+    ciono_step_m: float
+    iiono_s: float
+    ciono_ramp_mps: float
+    rss_udre: int
+    rss_iono: int
+    ccovariance: float
 
 
 @dataclass(frozen=True)
@@ -344,6 +394,7 @@ SbasContent = (
     | FastCorrections
     | Integrity
     | FastDegradation
+    | DegradationParameters
     | GeoNavigation
     | GeoAlmanac
     | IgpMask
@@ -382,6 +433,10 @@ def decode_content(bits: np.ndarray) -> SbasContent:
         return FastDegradation(int(_field(b, 14, 4)), int(_field(b, 18, 2)), _fields(b, 22, 4, 51).astype(int))
     if mtype == 9:
         return _geo_navigation(b)
+    if mtype == 10:
+        v = decode_fields(b, DEGRADATION_LAYOUT)
+        scaled = {k: float(x) for k, x in v.items() if not k.startswith("rss")}
+        return DegradationParameters(**scaled, rss_udre=int(v["rss_udre"]), rss_iono=int(v["rss_iono"]))
     if mtype == 17:
         return _geo_almanac(b)
     if mtype == 18:
@@ -424,6 +479,11 @@ def describe(content: SbasContent) -> str:
         return f"integrity IODF {' '.join(map(str, content.iodf))}"
     if isinstance(content, FastDegradation):
         return f"degradation factors IODP {content.iodp}, latency {content.latency_s} s"
+    if isinstance(content, DegradationParameters):
+        return (
+            f"degradation parameters: B_rrc {content.brrc_m:.3f} m, C_ltc_v0 {content.cltc_v0_m:.3f} m, "
+            f"C_iono_step {content.ciono_step_m:.3f} m, RSS_UDRE {content.rss_udre}, RSS_iono {content.rss_iono}"
+        )
     if isinstance(content, GeoNavigation):
         x, y, z = content.position_m
         return f"GEO navigation t0 {content.t0_s:.0f} s: {x:.2f} {y:.2f} {z:.1f} m"
@@ -444,14 +504,20 @@ def describe(content: SbasContent) -> str:
 class SbasCorrections:
     """What a stream's messages add up to at its end (module text): the mask, each masked
     satellite's latest fast correction (m), UDREI and the time of its message (and in
-    ``fast_previous`` the correction it replaced, for the range-rate correction), its
-    long-term correction, and each band's monitored IGPs with their latest delays (m) and GIVEI.
+    ``fast_previous`` the correction it replaced, for the range-rate correction; in
+    ``fast_iodf`` the IODF of both), its long-term correction (and in ``long_term_time`` its
+    message's time), each band's monitored IGPs with their latest delays (m) and GIVEI, and
+    the latest type 7 and type 10 with their times (``degradation``, ``parameters``).
     ``ignored`` counts messages whose IODP or IODI did not match the mask they need (or that
     came before it)."""
 
     mask: PrnMask | None = None
     fast: dict[str, tuple[float, int, float]] = field(default_factory=dict)
     fast_previous: dict[str, tuple[float, int, float]] = field(default_factory=dict)
+    fast_iodf: dict[str, tuple[int, int | None]] = field(default_factory=dict)
+    long_term_time: dict[str, float] = field(default_factory=dict)
+    degradation: tuple[float, FastDegradation] | None = None
+    parameters: tuple[float, DegradationParameters] | None = None
     long_term: dict[str, LongTermCorrection] = field(default_factory=dict)
     igp_masks: dict[int, IgpMask] = field(default_factory=dict)
     iono: dict[tuple[int, float, float], tuple[float, int, float]] = field(default_factory=dict)
@@ -467,21 +533,25 @@ class SbasCorrections:
             out.add(t, prn, decode_content(bits))
         return out
 
-    def _named(self, first: int, values: np.ndarray, udrei: np.ndarray, t: float) -> None:
+    def _named(self, first: int, values: np.ndarray, udrei: np.ndarray, t: float, iodf: int) -> None:
         assert self.mask is not None
         for k, (prc, u) in enumerate(zip(values, udrei)):
             if first + k < len(self.mask.slots):
                 sat = self.mask.satellites[first + k]
+                before = None
                 if sat in self.fast and self.fast[sat][2] < t:
                     self.fast_previous[sat] = self.fast[sat]
+                    before = self.fast_iodf.get(sat, (None, None))[0]
                 self.fast[sat] = (float(prc), int(u), t)
+                self.fast_iodf[sat] = (iodf, before)
 
-    def _long(self, corrections: list[LongTermCorrection]) -> None:
+    def _long(self, corrections: list[LongTermCorrection], t: float) -> None:
         for c in corrections:
             if self.mask is None or c.iodp != self.mask.iodp or c.slot > len(self.mask.slots):
                 self.ignored += 1
                 continue
             self.long_term[self.mask.satellites[c.slot - 1]] = c
+            self.long_term_time[self.mask.satellites[c.slot - 1]] = t
 
     def add(self, t: float, prn: int, content: SbasContent) -> None:
         """Take one decoded message (`decode_content`) sent at ``t`` by GEO ``prn``."""
@@ -491,12 +561,19 @@ class SbasCorrections:
             if self.mask is None or content.iodp != self.mask.iodp:
                 self.ignored += 1
             else:
-                self._named(content.first, content.prc_m, content.udrei, t)
+                self._named(content.first, content.prc_m, content.udrei, t, content.iodf)
         elif isinstance(content, tuple):  # type 24
             self.add(t, prn, content[0])
-            self._long(content[1])
+            self._long(content[1], t)
         elif isinstance(content, list):
-            self._long(content)
+            self._long(content, t)
+        elif isinstance(content, FastDegradation):
+            if self.mask is None or content.iodp != self.mask.iodp:
+                self.ignored += 1
+            else:
+                self.degradation = (t, content)
+        elif isinstance(content, DegradationParameters):
+            self.parameters = (t, content)
         elif isinstance(content, IgpMask):
             self.igp_masks[content.band] = content
         elif isinstance(content, IonoDelays):

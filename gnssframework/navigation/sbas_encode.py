@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .bit_fields import Layout, encode_fields
+from .sbas_content import DEGRADATION_LAYOUT, DegradationParameters
 from .sbas_message import DATA_BITS, message_bits
 
 __all__ = [
@@ -26,6 +27,8 @@ __all__ = [
     "long_term_message",
     "igp_mask_message",
     "iono_message",
+    "fast_degradation_message",
+    "degradation_parameters_message",
 ]
 
 _SOURCE = "RTCA DO-229 A.4.4"
@@ -151,3 +154,23 @@ def iono_message(
         values[f"delay{k}"] = delay[k] if monitored else 511 * 0.125
         values[f"givei{k}"] = gi[k] if monitored else 15
     return message_bits(preamble_index, 26, _data(layout, values, "type26"))
+
+
+def fast_degradation_message(latency_s: int, iodp: int, ai: Sequence[int], preamble_index: int = 0) -> np.ndarray:
+    """Type 7: the system latency (s), IODP and the degradation factor indicators a_i of mask
+    numbers 0-50 (fewer are padded with 0)."""
+    values = list(ai) + [0] * (51 - len(ai))
+    if len(values) > 51:
+        raise ConfigError("ai", f"type 7 carries 51 indicators, got {len(ai)}")
+    layout: Layout = {"latency": (15, 4, 1.0, False), "iodp": (19, 2, 1.0, False)}
+    fields: dict[str, float] = {"latency": latency_s, "iodp": iodp}
+    for k, v in enumerate(values):
+        layout[f"ai{k}"] = (23 + 4 * k, 4, 1.0, False)
+        fields[f"ai{k}"] = v
+    return message_bits(preamble_index, 7, _data(layout, fields, "type7"))
+
+
+def degradation_parameters_message(params: DegradationParameters, preamble_index: int = 0) -> np.ndarray:
+    """Type 10 from its parameters (`sbas_content.DEGRADATION_LAYOUT`)."""
+    values = {name: float(getattr(params, name)) for name in DEGRADATION_LAYOUT}
+    return message_bits(preamble_index, 10, _data(DEGRADATION_LAYOUT, values, "type10"))

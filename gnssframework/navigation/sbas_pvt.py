@@ -21,8 +21,19 @@ with no broadcast-model fallback.
 
 The weights are :math:`w_i = 1/\sigma_i^2`,
 :math:`\sigma_i^2 = \sigma^2_{flt,i} + \sigma^2_{UIRE,i} + \sigma^2_{air,i} + \sigma^2_{tropo,i}`
-(J.1): :math:`\sigma^2_{flt} = \sigma^2_{UDRE}` (its degradation terms of types 7 and 10 are
-not applied), :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
+(J.1): :math:`\sigma^2_{flt} = (\sigma_{UDRE} + \epsilon_{fc} + \epsilon_{rrc} + \epsilon_{ltc})^2`
+(or their root sum square with type 10's RSS_UDRE = 1; A.4.5.1): with type 7,
+:math:`\epsilon_{fc} = a (t - t_u + t_{lat})^2 / 2` (``a`` of the satellite's a_i, `t_lat` its
+latency), a fast correction older than the a_i's precision-approach time-out ``I_fc`` not
+used, and the range-rate correction 0 where a_i is 0; with type 10,
+:math:`\epsilon_{rrc} = (a I_{fc}/4 + B_{rrc}/\Delta t)(t - t_{of})` after non-consecutive
+IODFs (:math:`(a |\Delta t - I_{fc}/2|/2 + B_{rrc}/\Delta t)(t - t_{of})` when either IODF is 3
+and :math:`\Delta t \ne I_{fc}/2`), :math:`\epsilon_{ltc} = C_{ltc,lsb} + C_{ltc,v1}
+\max(0, t_0 - t, t - t_0 - I_{ltc,v1})` (velocity code 1) or :math:`C_{ltc,v0} \lfloor (t -
+t_{ltc}) / I_{ltc,v0} \rfloor` (code 0, :math:`t_{ltc}` the message's time), and each IGP's
+:math:`\sigma_{GIVE}` grows by :math:`\epsilon_{iono} = C_{iono,step}\lfloor\Delta t /
+I_{iono}\rfloor + C_{iono,ramp}\Delta t` (RSS_iono likewise). δUDRE (types 27, 28) is 1 and
+:math:`\epsilon_{er}` (en-route fallback) 0. :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
 :math:`\sigma^2_{air} = \sigma^2_{noise} + \sigma^2_{multipath}` with
 :math:`\sigma_{multipath} = 0.13 + 0.53\,e^{-E/10°}` m (J.2.4) and a constant
 :math:`\sigma_{noise}` (``sigma_noise_m``; 0.36 m, an airborne accuracy designator A
@@ -70,6 +81,29 @@ __all__ = [
 
 #: Modes of the horizontal factor: precision approach, en route to non-precision approach.
 SBAS_MODES = ("pa", "npa")
+#: Type 7's degradation factor a (m/s²) of each indicator a_i 0-15 (DO-229 A.4.5.1.1).
+FAST_DEGRADATION_MPS2 = np.array(
+    [
+        0.0,
+        0.00005,
+        0.00009,
+        0.00012,
+        0.00015,
+        0.0002,
+        0.0003,
+        0.00045,
+        0.0006,
+        0.0009,
+        0.0015,
+        0.0021,
+        0.0027,
+        0.0033,
+        0.0046,
+        0.0058,
+    ]
+)
+#: The fast corrections' time-out (s) for precision approach of each a_i (DO-229 A.4.5.1.1).
+FAST_TIMEOUT_PA_S = np.array([120, 120, 102, 90, 90, 78, 66, 54, 42, 30, 30, 18, 18, 18, 12, 12], dtype=float)
 #: DO-229 J.1's factors of the vertical and horizontal protection levels.
 K_V = 5.33
 K_H = {"pa": 6.0, "npa": 6.18}
@@ -113,6 +147,23 @@ def _seconds_of_day_since(tow_s: np.ndarray, t0_s: float) -> np.ndarray:
     return (np.asarray(tow_s, float) % 86_400.0 - t0_s + 43_200.0) % 86_400.0 - 43_200.0
 
 
+def _slot_of(corrections: SbasCorrections, sv: str) -> int | None:
+    """The 0-based mask number of ``sv`` (None outside the mask)."""
+    if corrections.mask is None or sv not in corrections.mask.satellites:
+        return None
+    return corrections.mask.satellites.index(sv)
+
+
+def _flt_variance(corrections: SbasCorrections, udrei: int, eps_fc: float, eps_rrc: float, eps_ltc: float) -> float:
+    """σ²_flt of A.4.5.1: the UDRE's σ and the degradation terms, added (RSS_UDRE 0) or
+    root-sum-squared (1)."""
+    sigma = float(np.sqrt(UDRE_VARIANCE_M2[udrei]))
+    rss = corrections.parameters is not None and corrections.parameters[1].rss_udre == 1
+    if rss:
+        return sigma**2 + eps_fc**2 + eps_rrc**2 + eps_ltc**2
+    return (sigma + eps_fc + eps_rrc + eps_ltc) ** 2
+
+
 def sbas_satellite_corrections(
     corrections: SbasCorrections,
     ephemeris: Ephemerides,
@@ -122,22 +173,29 @@ def sbas_satellite_corrections(
     range_rate: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
     """Each record's long-term position (m, ECEF) and clock (s) corrections, its fast
-    correction (m, with the range-rate term), σ²_UDRE (m²) and why it has none (``""`` where
-    it has both; module text), at GPS times ``tow_s`` (``(S,)`` seconds of week)."""
+    correction (m, with the range-rate term), σ²_flt (m², with the degradation terms of the
+    module text) and why it has none (``""`` where it has both), at GPS times ``tow_s``
+    (``(S,)`` seconds of week). With a type 7 its fast correction's time-out is DO-229's
+    precision-approach one of the satellite's a_i (`FAST_TIMEOUT_PA_S`), else ``max_fast_age_s``."""
     tow = np.broadcast_to(np.asarray(tow_s, float), ephemeris.sv.shape)
     n = tow.size
     dpos, dclock, fast, var = np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.full(n, np.nan)
     reasons = []
+    mt7 = corrections.degradation[1] if corrections.degradation is not None else None
+    mt10 = corrections.parameters[1] if corrections.parameters is not None else None
     for i, sv in enumerate(np.asarray(ephemeris.sv).astype(str)):
         got = corrections.fast.get(sv)
         long = corrections.long_term.get(sv)
+        slot = _slot_of(corrections, sv)
+        ai = int(mt7.ai[slot]) if mt7 is not None and slot is not None and slot < mt7.ai.size else None
+        timeout = FAST_TIMEOUT_PA_S[ai] if ai is not None else max_fast_age_s
         if not sv.startswith("G"):
             reasons.append("not GPS")
         elif got is None:
             reasons.append("no fast correction")
         elif got[1] >= 14:
             reasons.append("not monitored" if got[1] == 14 else "do not use")
-        elif abs(tow[i] - got[2]) > max_fast_age_s:
+        elif abs(tow[i] - got[2]) > timeout:
             reasons.append("fast correction too old")
         elif long is None or long.iode != int(ephemeris.iode[i]):
             reasons.append("no long-term correction of this IODE")
@@ -148,18 +206,48 @@ def sbas_satellite_corrections(
             dclock[i] = long.daf0_s + long.daf1_s_s * dt
             prc, _, t_of = got
             old = corrections.fast_previous.get(sv)
-            rrc = (prc - old[0]) / (t_of - old[2]) if (range_rate and old is not None and t_of > old[2]) else 0.0
-            fast[i] = prc + rrc * (tow[i] - t_of)
-            var[i] = UDRE_VARIANCE_M2[got[1]]
+            a = FAST_DEGRADATION_MPS2[ai] if ai is not None else 0.0
+            use_rrc = range_rate and old is not None and t_of > old[2] and ai != 0
+            rrc = (prc - old[0]) / (t_of - old[2]) if use_rrc and old is not None else 0.0
+            age = float(tow[i] - t_of)
+            fast[i] = prc + rrc * age
+            latency = float(mt7.latency_s) if mt7 is not None else 0.0
+            eps_fc = a * (age + latency) ** 2 / 2
+            eps_rrc = eps_ltc = 0.0
+            if mt10 is not None:
+                if use_rrc and old is not None:
+                    iodf, iodf_before = corrections.fast_iodf.get(sv, (0, None))
+                    step = t_of - old[2]
+                    if iodf == 3 or iodf_before == 3:
+                        if step != timeout / 2:
+                            eps_rrc = (a * abs(step - timeout / 2) / 2 + mt10.brrc_m / step) * age
+                    elif iodf_before is not None and (iodf - iodf_before) % 3 != 1:
+                        eps_rrc = (a * timeout / 4 + mt10.brrc_m / step) * age
+                if long.t0_s is not None:  # velocity code 1
+                    late = max(0.0, -dt, dt - mt10.iltc_v1_s)
+                    eps_ltc = mt10.cltc_lsb_m + mt10.cltc_v1_mps * late
+                elif mt10.iltc_v0_s > 0:
+                    since = float(tow[i] - corrections.long_term_time.get(sv, float(tow[i])))
+                    eps_ltc = mt10.cltc_v0_m * np.floor(max(since, 0.0) / mt10.iltc_v0_s)
+            var[i] = _flt_variance(corrections, got[1], eps_fc, eps_rrc, eps_ltc)
     return dpos, dclock, fast, var, tuple(reasons)
 
 
-def _iono_grid(corrections: SbasCorrections) -> dict[tuple[float, float], tuple[float, float]]:
-    """Monitored IGPs (latitude, longitude in [-180, 180)) to their delay and σ²_GIVE."""
+def _iono_grid(corrections: SbasCorrections, tow_s: float) -> dict[tuple[float, float], tuple[float, float]]:
+    """Monitored IGPs (latitude, longitude in [-180, 180)) to their delay and σ²_ionogrid at
+    ``tow_s``: σ²_GIVE with type 10's ε_iono (``C_iono_step ⌊Δt / I_iono⌋ + C_iono_ramp Δt``,
+    Δt the age of the IGP's delay), added to σ_GIVE (RSS_iono 0) or root-sum-squared (1)."""
+    mt10 = corrections.parameters[1] if corrections.parameters is not None else None
     grid = {}
-    for (_, lat, lon), (delay, givei, _) in corrections.iono.items():
+    for (_, lat, lon), (delay, givei, t) in corrections.iono.items():
         if np.isfinite(delay) and givei < 15:
-            grid[(lat, (lon + 180.0) % 360.0 - 180.0)] = (delay, float(GIVE_VARIANCE_M2[givei]))
+            var = float(GIVE_VARIANCE_M2[givei])
+            if mt10 is not None:
+                age = max(tow_s - t, 0.0)
+                steps = np.floor(age / mt10.iiono_s) if mt10.iiono_s > 0 else 0.0
+                eps = mt10.ciono_step_m * steps + mt10.ciono_ramp_mps * age
+                var = var + eps**2 if mt10.rss_iono == 1 else (np.sqrt(var) + eps) ** 2
+            grid[(lat, (lon + 180.0) % 360.0 - 180.0)] = (delay, var)
     return grid
 
 
@@ -239,7 +327,7 @@ def solve_position_sbas(
         lat, lon, h = fix.lat_deg, fix.lon_deg, fix.height_m
         el, az = fix.elevation_deg, fix.azimuth_deg
         lat_pp, lon_pp, slant = sbas_pierce_point(lat, lon, az, el)
-        vertical, var_uive = grid_vertical_delay(lat_pp, lon_pp, _iono_grid(corrections))
+        vertical, var_uive = grid_vertical_delay(lat_pp, lon_pp, _iono_grid(corrections, float(np.nanmedian(tx))))
         iono, var_uire = slant * vertical, slant**2 * var_uive
         tropo, var_tropo = mops_troposphere(lat, h, el, day_of_year)
         multipath = 0.13 + 0.53 * np.exp(-el / 10.0)

@@ -207,5 +207,24 @@ def test_each_type_read_is_described_in_one_line(log):
     assert seen[4].endswith("mask numbers 27-39") and seen[9].startswith("GEO navigation t0 1600 s")
     assert seen[17] == "GEO almanac t0 1600 s: PRN 129 137"
     assert seen[25].startswith("long-term corrections: mask numbers")
-    assert seen[10] == seen[28] == seen[63] == ""  # not interpreted / null
+    assert seen[10].startswith("degradation parameters: B_rrc 0.108 m")
+    assert seen[28] == seen[63] == ""  # not interpreted / null
     assert all(text for mtype, text in seen.items() if mtype in (2, 3, 4, 7, 18, 26))
+
+
+def test_both_geos_send_the_same_degradation_parameters(log):
+    # Type 10 describes the network's error model, not the GEO: MSAS's two GEOs must agree,
+    # and every value lies inside its field (a misplaced field would read past one).
+    from gnssframework.navigation.sbas_content import DEGRADATION_LAYOUT, DegradationParameters
+
+    found = {p: c for t, p, c in _of_type(log, 10)}
+    assert set(found) == {129, 137} and found[129] == found[137]
+    params = found[129]
+    assert isinstance(params, DegradationParameters)
+    for name, (_, n, scale, _) in DEGRADATION_LAYOUT.items():
+        assert 0 <= getattr(params, name) <= ((1 << n) - 1) * scale
+    # MSAS's time-outs and steps are seconds to minutes, its C_er metres (A.4.5.1.4).
+    assert 60 <= params.iltc_v0_s <= 511 and 60 <= params.iiono_s <= 511 and 0 < params.cer_m <= 31.5
+    degradation = _of_type(log, 7)
+    assert {p for _, p, _ in degradation} == {129, 137}
+    assert all(0 <= c.latency_s <= 15 and c.ai.size == 51 and c.ai.max() <= 15 for _, _, c in degradation)

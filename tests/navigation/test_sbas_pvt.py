@@ -296,3 +296,99 @@ def test_satellites_without_usable_corrections_are_left_out_and_say_why(epoch):
     assert solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], no_iono, day_of_year=DAY_OF_YEAR) is None
     with pytest.raises(ConfigError, match="day_of_year"):
         solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], corr, day_of_year=0)
+
+
+# --- DO-229 A.4.5's degradation terms, by hand ---------------------------------------------
+
+SIGMA_UDRE4 = np.sqrt(0.4678)  # UDREI 4 (Table A-6)
+
+
+def _one_satellite(t_of=100.0, prc=1.0, iodf=(1, 0), previous=None):
+    """G05's record and corrections for it: mask, fast correction (UDREI 4) at ``t_of``, a
+    long-term correction of its IODE sent at 0 s (velocity code 0)."""
+    eph = read_rinex_nav(DATA / "07590920.05n", "G").select(["G05"], TOW)
+    corr = SbasCorrections(mask=PrnMask(0, (5,)))
+    corr.fast["G05"] = (prc, 4, t_of)
+    corr.fast_iodf["G05"] = iodf
+    if previous is not None:
+        corr.fast_previous["G05"] = previous
+    corr.long_term["G05"] = LongTermCorrection(1, int(eph.iode[0]), 0, np.zeros(3), np.zeros(3), 0.0, 0.0, None)
+    corr.long_term_time["G05"] = 0.0
+    return eph, corr
+
+
+def _params(**given):
+    from gnssframework.navigation.sbas_content import DEGRADATION_LAYOUT, DegradationParameters
+
+    values = {name: 0.0 for name in DEGRADATION_LAYOUT}
+    values.update(given)
+    return DegradationParameters(**{k: (int(v) if k.startswith("rss") else v) for k, v in values.items()})
+
+
+def test_fast_correction_degradation_and_time_out_follow_type_7():
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import decode_content
+    from gnssframework.navigation.sbas_pvt import sbas_satellite_corrections
+
+    eph, corr = _one_satellite()
+    *_, var, why = sbas_satellite_corrections(corr, eph, np.array([110.0]))
+    assert why == ("",) and var[0] == pytest.approx(0.4678)  # no type 7: sigma_UDRE alone
+    # a_i 9 (a = 0.0009 m/s^2), latency 2 s, 10 s old: eps_fc = 0.0009 * 12^2 / 2 = 0.0648 m.
+    corr.degradation = (90.0, decode_content(enc.fast_degradation_message(2, 0, [9])))
+    *_, var, _ = sbas_satellite_corrections(corr, eph, np.array([110.0]))
+    assert var[0] == pytest.approx((SIGMA_UDRE4 + 0.0648) ** 2)
+    # a_i 14: precision approach's time-out is 12 s.
+    corr.degradation = (90.0, decode_content(enc.fast_degradation_message(2, 0, [14])))
+    assert sbas_satellite_corrections(corr, eph, np.array([111.9]))[4] == ("",)
+    assert sbas_satellite_corrections(corr, eph, np.array([112.1]))[4] == ("fast correction too old",)
+    # a_i 0: no range-rate correction, whatever the previous correction.
+    eph, corr = _one_satellite(previous=(0.0, 4, 94.0))
+    corr.degradation = (90.0, decode_content(enc.fast_degradation_message(0, 0, [0])))
+    fast = sbas_satellite_corrections(corr, eph, np.array([110.0]))[2]
+    assert fast[0] == 1.0
+    corr.degradation = (90.0, decode_content(enc.fast_degradation_message(0, 0, [1])))
+    fast = sbas_satellite_corrections(corr, eph, np.array([110.0]))[2]
+    assert fast[0] == pytest.approx(1.0 + (1.0 / 6.0) * 10.0)
+
+
+def test_type_10_terms_add_or_root_sum_square():
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import decode_content
+    from gnssframework.navigation.sbas_pvt import sbas_satellite_corrections
+
+    # Long-term, velocity code 0: C_ltc_v0 per whole I_ltc_v0 since its message (250 s: 2 x 0.304 m).
+    eph, corr = _one_satellite(t_of=245.0)
+    params = _params(cltc_v0_m=0.304, iltc_v0_s=100.0, brrc_m=0.108)
+    corr.parameters = (0.0, decode_content(enc.degradation_parameters_message(params)))
+    *_, var, _ = sbas_satellite_corrections(corr, eph, np.array([250.0]))
+    assert var[0] == pytest.approx((SIGMA_UDRE4 + 0.608) ** 2)
+    # RSS_UDRE = 1: the same terms root-sum-squared.
+    corr.parameters = (0.0, _params(cltc_v0_m=0.304, iltc_v0_s=100.0, rss_udre=1))
+    *_, var, _ = sbas_satellite_corrections(corr, eph, np.array([250.0]))
+    assert var[0] == pytest.approx(0.4678 + 0.608**2)
+    # Range rate after IODFs 0 then 2 (not consecutive): (a I_fc/4 + B_rrc/dt)(t - t_of),
+    # a_i 4 (a = 0.00015, I_fc 90 s), dt 6 s, 5 s after: (0.003375 + 0.018) * 5 = 0.106875 m.
+    eph, corr = _one_satellite(t_of=245.0, iodf=(2, 0), previous=(0.9, 4, 239.0))
+    corr.degradation = (240.0, decode_content(enc.fast_degradation_message(0, 0, [4])))
+    corr.parameters = (0.0, _params(brrc_m=0.108, iltc_v0_s=300.0))
+    *_, var, _ = sbas_satellite_corrections(corr, eph, np.array([250.0]))
+    eps_fc = 0.00015 * 5.0**2 / 2
+    assert var[0] == pytest.approx((SIGMA_UDRE4 + eps_fc + 0.106875) ** 2)
+    # Consecutive IODFs (1 after 0): no range-rate term.
+    corr.fast_iodf["G05"] = (1, 0)
+    *_, var, _ = sbas_satellite_corrections(corr, eph, np.array([250.0]))
+    assert var[0] == pytest.approx((SIGMA_UDRE4 + eps_fc) ** 2)
+
+
+def test_an_igps_variance_grows_with_its_age_by_type_10():
+    from gnssframework.navigation.sbas_pvt import _iono_grid
+
+    corr = SbasCorrections()
+    corr.iono[(7, 35.0, 140.0)] = (3.0, 5, 0.0)  # GIVEI 5: sigma^2 0.2994
+    assert _iono_grid(corr, 650.0)[(35.0, 140.0)] == (3.0, pytest.approx(0.2994))
+    # 650 s old, I_iono 300 s: two steps of 0.228 m plus 650 s of a 0.0001 m/s ramp.
+    corr.parameters = (0.0, _params(ciono_step_m=0.228, iiono_s=300.0, ciono_ramp_mps=0.0001))
+    eps = 2 * 0.228 + 0.065
+    assert _iono_grid(corr, 650.0)[(35.0, 140.0)][1] == pytest.approx((np.sqrt(0.2994) + eps) ** 2)
+    corr.parameters = (0.0, _params(ciono_step_m=0.228, iiono_s=300.0, ciono_ramp_mps=0.0001, rss_iono=1))
+    assert _iono_grid(corr, 650.0)[(35.0, 140.0)][1] == pytest.approx(0.2994 + eps**2)
