@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
+from ..signal.beidou_b1c import BEIDOU_B1C
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.gps_l2c import GPS_L2C
 from ..signal.gps_l5 import GPS_L5I
@@ -78,6 +79,7 @@ __all__ = [
     "CNAV_FIELDS",
     "GALILEO_FIELDS",
     "OPTIONAL_FIELDS",
+    "BDS_CNAV_FIELDS",
 ]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
@@ -156,8 +158,21 @@ CNAV_FIELDS = {
 #: E1,E5a pair (F/NAV, RINEX data source bit 8; its ``TGD`` BGD(E1,E5a)), 0 for the E1,E5b
 #: pair of I/NAV (and any other system's record).
 GALILEO_FIELDS = {"FNAV": 0.0}
+#: Elements only a BeiDou B-CNAV1/2/3 record has (RINEX 4 ``CNV1``-``CNV3``): ``BDS_CNAV`` 1,
+#: the B1C pilot's and B2a pilot's group delays to B3I ``TGD_B1Cp``, ``TGD_B2ap`` (s), the data
+#: components' ``ISC_B1Cd``, ``ISC_B2ad`` and B2b's ``TGD_B2bI`` (BDS-SIS-ICD-B1C 7.6.2).
+BDS_CNAV_FIELDS = {
+    "BDS_CNAV": 0.0,
+    "TGD_B1Cp": float("nan"),
+    "TGD_B2ap": float("nan"),
+    "ISC_B1Cd": float("nan"),
+    "ISC_B2ad": float("nan"),
+    "TGD_B2bI": float("nan"),
+}
 #: Every element a record may lack, with the value that means "absent".
-OPTIONAL_FIELDS = {**CNAV_FIELDS, **GALILEO_FIELDS}
+OPTIONAL_FIELDS = {**CNAV_FIELDS, **GALILEO_FIELDS, **BDS_CNAV_FIELDS}
+#: BeiDou carriers (Hz) whose user takes a B-CNAV record's group delay: B1C, B2a.
+_BDS_CNAV_DELAYS = {BEIDOU_B1C.carrier_freq_hz: "TGD_B1Cp", GPS_L5I.carrier_freq_hz: "TGD_B2ap"}
 
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
@@ -369,10 +384,41 @@ def single_frequency_clock_s(
     same generic rule (no ICD defines it: a record without CNAV's ISCs says nothing of L5).
     Galileo on E5a: :math:`\Delta t_{SV} - (f_{E1}/f_{E5a})^2 BGD(E1,E5a)` from a record whose
     clock is for E1,E5a (``FNAV`` 1: F/NAV's, OS SIS ICD 5.1.5); NaN from an I/NAV record,
-    whose clock is for E1,E5b (no E5a user's clock can be made of it). Other systems:
+    whose clock is for E1,E5b (no E5a user's clock can be made of it). BeiDou, whose clocks
+    are referred to B3I: on B1I :math:`\Delta t_{SV} - T_{GD1}` from a D1/D2 record; on B1C
+    :math:`\Delta t_{SV} - T_{GD,B1Cp}` and on B2a :math:`\Delta t_{SV} - T_{GD,B2ap}` from a
+    B-CNAV record (``BDS_CNAV`` 1, RINEX 4 ``CNV1``-``CNV3``; BDS-SIS-ICD-B1C 7.6.2, the
+    pilot's: the data component's ISC is kept, not applied), NaN from it on another carrier;
+    a D1/D2 record gives T_GD1's clock on every carrier (one carrier named for all systems,
+    GPS L1's, says nothing of BeiDou's signal: a caller tracking B1C should give B-CNAV
+    records, whose T_GD,B1Cp is B1C's). Other systems and carriers:
     ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
     ``carrier_freq_hz``.
     """
+    letters = np.asarray(eph.sv).astype("U1")
+    return _beidou_clock(eph, state, carrier_freq_hz, letters, _clock_of_others(eph, state, carrier_freq_hz, reference))
+
+
+def _beidou_clock(eph: Ephemerides, state: SatelliteState, carrier_freq_hz: float, letters, clock) -> np.ndarray:
+    """BeiDou records' clocks kept to their own group delays: a B-CNAV record gives a user on
+    B1C's or B2a's carrier ``Δt_SV - T_GD`` of that signal's pilot and no B1I user a clock (it
+    has no T_GD1); a D1/D2 record gives ``Δt_SV - T_GD1`` (B1I's) on every carrier, as before
+    (a call naming one carrier for all systems, e.g. GPS L1's, says nothing of BeiDou's)."""
+    beidou = letters == "C"
+    if not beidou.any():
+        return clock
+    cnav = beidou & (eph.elements.get("BDS_CNAV", np.zeros(letters.shape)) == 1.0)
+    for hz, name in _BDS_CNAV_DELAYS.items():
+        if abs(float(carrier_freq_hz) - hz) < 1.0:
+            delay = eph.elements.get(name, np.full(letters.shape, np.nan))
+            return np.where(cnav, state.clock_s - delay, clock)
+    return np.where(cnav, np.nan, clock)
+
+
+def _clock_of_others(
+    eph: Ephemerides, state: SatelliteState, carrier_freq_hz: float, reference: SignalSpec
+) -> np.ndarray:
+    """`single_frequency_clock_s` of every record before BeiDou's own group delays."""
     gamma = ionosphere_scale(carrier_freq_hz, reference)
     letters = np.asarray(eph.sv).astype("U1")
     gps = np.isin(letters, ["G", "J"])
@@ -394,11 +440,16 @@ def single_frequency_clock_s(
 def clock_defined(eph: Ephemerides, carrier_freq_hz: float) -> np.ndarray:
     """``(N,)`` whether each record gives a single-frequency user of ``carrier_freq_hz`` a
     clock (`single_frequency_clock_s`): every record but a Galileo one whose clock is for
-    E1,E5b (``FNAV`` 0, I/NAV's) on E5a, where only an E1,E5a clock serves."""
+    E1,E5b (``FNAV`` 0, I/NAV's) on E5a, where only an E1,E5a clock serves, and a BeiDou
+    B-CNAV record off B1C's and B2a's carriers (it has no T_GD1)."""
     letters = np.asarray(eph.sv).astype("U1")
-    if abs(float(carrier_freq_hz) - GPS_L5I.carrier_freq_hz) >= 1.0:
-        return np.ones(letters.shape, bool)
-    return (letters != "E") | (eph.elements.get("FNAV", np.zeros(letters.shape)) == 1.0)
+    cnav = (letters == "C") & (eph.elements.get("BDS_CNAV", np.zeros(letters.shape)) == 1.0)
+    f = float(carrier_freq_hz)
+    # A B-CNAV record serves B1C's and B2a's carriers only (no T_GD1 for B1I or another signal).
+    ok = ~cnav | any(abs(f - hz) < 1.0 for hz in _BDS_CNAV_DELAYS)
+    if abs(f - GPS_L5I.carrier_freq_hz) >= 1.0:
+        return ok
+    return ok & ((letters != "E") | (eph.elements.get("FNAV", np.zeros(letters.shape)) == 1.0))
 
 
 def records_with_clock(eph: Ephemerides | None, carrier_freq_hz: float) -> Ephemerides | None:
@@ -418,6 +469,12 @@ def require_records_with_clock(
     a clock (`clock_defined`: only E5a refuses, a Galileo record without F/NAV's clock)."""
     usable = records_with_clock(eph, signal.carrier_freq_hz)
     if usable is None:
+        if signal.system == "C":
+            raise ConfigError(
+                field,
+                f"no record gives a {signal.name} user a clock: {source} holds BeiDou B-CNAV records only "
+                f"(RINEX 4 CNV1-CNV3), which have no T_GD1 for it: give D1/D2 records{hint}",
+            )
         raise ConfigError(
             field,
             f"no record gives a {signal.name} user a clock: {source} holds no Galileo F/NAV record (RINEX "
@@ -570,11 +627,16 @@ def _group_delay(letter: str, values: dict) -> np.ndarray:
     return np.where(src & 512, values["BGDe5b"], np.where(src & 256, values["BGDe5a"], np.nan))
 
 
-def read_rinex_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") -> Ephemerides:
+def read_rinex_nav(
+    path: str | Path, systems: str = "G", cnav_band: str = "L2", bds_messages: str = "D1D2"
+) -> Ephemerides:
     """Every complete ephemeris record of the ``systems`` (RINEX letters, ``"G"``,
     ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex), or a RINEX 4 one (`rinex4_nav`;
     its GPS and QZSS CNAV and CNV2 records too, their health the ``cnav_band``'s bit of the
-    L1/L2/L5 word: ``"L1"``, ``"L2"`` or ``"L5"``).
+    L1/L2/L5 word: ``"L1"``, ``"L2"`` or ``"L5"``; of BeiDou's, the D1/D2 records
+    (``bds_messages="D1D2"``, a B1I user's, as a RINEX 3 file holds) or the B-CNAV records
+    ``CNV1``-``CNV3`` (``"CNAV"``, a B1C or B2a user's: `BDS_CNAV_FIELDS`), never both, so that
+    no B1I fix takes a B-CNAV record of the same hour).
 
     A Galileo record also holds ``elements["FNAV"]``: 1 where its clock is for E1,E5a (data
     source bit 8 without bit 9), 0 otherwise (`GALILEO_FIELDS`).
@@ -607,7 +669,11 @@ def read_rinex_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") 
     from .rinex4_nav import is_rinex4
 
     if is_rinex4(path):  # georinex reads RINEX 2 and 3 only
-        return _read_rinex4(path, systems, cnav_band)
+        return _read_rinex4(path, systems, cnav_band, bds_messages)
+    if bds_messages != "D1D2" and "C" in systems:
+        raise DataFileError(
+            str(path), None, "BeiDou B-CNAV records are RINEX 4's (CNV1-CNV3): this file is RINEX 2 or 3"
+        )
     names = "/".join(_SYSTEM_NAMES[letter] for letter in systems)
     parts = []
     for letter in dict.fromkeys(systems):
@@ -691,7 +757,7 @@ def read_rinex_nav(path: str | Path, systems: str = "G", cnav_band: str = "L2") 
     )
 
 
-def _read_rinex4(path: Path, systems: str, cnav_band: str) -> Ephemerides:
+def _read_rinex4(path: Path, systems: str, cnav_band: str, bds_messages: str = "D1D2") -> Ephemerides:
     """`read_rinex_nav` of a RINEX 4 file: its ``EPH`` records of `rinex4_nav.EPH_LAYOUTS`
     with the fields and meanings of a RINEX 3 file's (file order kept); a CNAV record's
     ``Toe`` its epoch, its health the ``cnav_band`` bit, its issue of data t_oe / 300 and
@@ -701,14 +767,31 @@ def _read_rinex4(path: Path, systems: str, cnav_band: str) -> Ephemerides:
 
     if cnav_band not in CNAV_HEALTH_BITS:
         raise ValueError(f"cnav_band {cnav_band!r}: one of {', '.join(CNAV_HEALTH_BITS)}")
+    if bds_messages not in ("D1D2", "CNAV"):
+        raise ValueError(f"bds_messages {bds_messages!r}: D1D2 or CNAV")
     _, records = scan_rinex4_nav(path)
-    wanted = [r for r in records if r.kind == "EPH" and r.sv[:1] in systems]
+    beidou_cnav = bds_messages == "CNAV"
+    wanted = [
+        r
+        for r in records
+        if r.kind == "EPH" and r.sv[:1] in systems and (r.sv[:1] != "C" or r.message.startswith("CNV") == beidou_cnav)
+    ]
     parts = []
     for index, letter, message, group, values in eph_tables(wanted):
         sv = np.array([r.sv for r in group], dtype=str)
         toc_s = gps_seconds_of_week(np.array([r.epoch for r in group])).astype(float)
         elements: dict[str, np.ndarray] = {}
-        if message in ("CNAV", "CNV2"):
+        if letter == "C" and message.startswith("CNV"):
+            health = values["health"]
+            # CNV1/CNV2 carry an IODE; CNV3 none: t_oe / 300 stands for it, as for GPS CNAV.
+            iod = values["IODE"] if "IODE" in values else np.round(values["Toe"] / 300.0)
+            accuracy = np.full(sv.size, np.nan)  # SISAI indices: no metres assigned here
+            values["TGD"] = np.full(sv.size, np.nan)  # no B1I group delay: a B1I user gets no clock
+            for name in ("TGD_B1Cp", "TGD_B2ap", "ISC_B1Cd", "ISC_B2ad", "TGD_B2bI"):
+                if name in values:
+                    elements[name] = values[name]
+            elements.update(Adot=values["Adot"], DeltaN0dot=values["DeltaN0dot"], BDS_CNAV=np.ones(sv.size))
+        elif message in ("CNAV", "CNV2"):
             values["Toe"] = toc_s  # RINEX 4 writes no t_oe: it is t_oc
             word = np.nan_to_num(values["health"], nan=-1).astype(np.int64)
             health = np.where(word < 0, np.nan, (word >> CNAV_HEALTH_BITS[cnav_band]) & 1).astype(float)
@@ -732,7 +815,8 @@ def _read_rinex4(path: Path, systems: str, cnav_band: str) -> Ephemerides:
                 elements["FNAV"] = (((src & 256) != 0) & ((src & 512) == 0)).astype(float)
         for name in ORBIT_FIELDS + CLOCK_FIELDS:
             elements[name] = values[name]
-        complete = np.all([np.isfinite(elements[f]) for f in ORBIT_FIELDS + CLOCK_FIELDS], axis=0)
+        needed = ORBIT_FIELDS + (CLOCK_FIELDS[:3] if letter == "C" and message.startswith("CNV") else CLOCK_FIELDS)
+        complete = np.all([np.isfinite(elements[f]) for f in needed], axis=0)
         keep = np.flatnonzero(complete & np.isfinite(health) & np.isfinite(iod))
         if keep.size:
             parts.append(

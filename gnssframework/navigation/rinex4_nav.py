@@ -20,15 +20,26 @@ GPS/QZSS ``CNAV``        ``Adot, Crs, Δn0, M0 / Cuc, e, Cus, √A / t_op, Cic, 
                          health, T_GD, URAI_NED2 / ISC_L1CA, ISC_L2C, ISC_L5I5,
                          ISC_L5Q5 / t_tm, WN_op``, A33 (t_oe is the record's epoch t_oc)
 GPS/QZSS ``CNV2``        CNAV's, with ``ISC_L1Cd, ISC_L1Cp`` on a line before t_tm, A34
+BeiDou ``CNV1``/``CNV2`` ``Adot, Crs, Δn0, M0 / Cuc, e, Cus, √A / t_oe, Cic, Ω0, Cis /
+                         i0, Crc, ω, Ω̇ / IDOT, Δṅ0, satellite type, t_op / SISAI_oe,
+                         SISAI_ocb, SISAI_oc1, SISAI_oc2 / ISC_B1Cd (CNV2: ISC_B2ad second),
+                         T_GD,B1Cp, T_GD,B2ap / SISMAI, health, integrity flags, IODC / t_tm,
+                         IODE (fourth)``, A37 (B-CNAV1 from B1C, B-CNAV2 from B2a)
+BeiDou ``CNV3``          the same six orbit lines, then ``SISMAI, health, integrity flags,
+                         T_GD,B2bI / t_tm`` (B-CNAV3 from B2b)
 ======================== =============================================================
 
 A CNAV record's √A is that of :math:`A_{REF} + \Delta A` and its Ω̇ the full rate, as
 `cnav_records` assembles a decoded one; its health is the 3-bit L1/L2/L5 word (L1 the high
 bit: IS-GPS-200 30.3.3.1.1.2), of which a record read here keeps the bit of the band its user
 tracks (``cnav_band``: ``"L2"`` or ``"L5"``; the L1 bit for ``"L1"``); its accuracy the
-URA_ED index's metres and its issue of data :math:`t_{oe}/300`, as `cnav_records`. Records of
-other systems or messages (GLONASS ``FDMA``, SBAS, NavIC, BeiDou ``CNV1``-``CNV3``) are
-counted and left out.
+URA_ED index's metres and its issue of data :math:`t_{oe}/300`, as `cnav_records`. A BeiDou
+``CNV1``-``CNV3`` record's orbit is propagated as a CNAV one (:math:`A_0` the written √A's
+square, its rates Ȧ and Δṅ0; BDS-SIS-ICD-B1C 7.8) and its clock (referred to B3I, as D1's)
+keeps its own group delays apart from D1's: `ephemeris.single_frequency_clock_s` gives a
+B1C user ``Δt_SV - T_GD,B1Cp`` and a B2a user ``Δt_SV - T_GD,B2ap`` from these records only,
+and a B1I user ``Δt_SV - T_GD1`` from D1/D2 records only. Records of other systems or
+messages (GLONASS ``FDMA``, SBAS, NavIC) are counted and left out.
 
 An ``ION`` record holds the coefficients the satellite broadcast at its epoch: GPS/QZSS
 ``LNAV`` and BeiDou ``D1D2`` Klobuchar's α0-α3, β0-β3; Galileo ``IFNV`` NeQuick's ai0-ai2.
@@ -98,6 +109,25 @@ _CNAV = (
     ("TransTime", "WNop"),
 )
 _CNV2 = _CNAV[:7] + (("ISC_L1Cd", "ISC_L1Cp"), _CNAV[7])
+_BDS_CNAV = (
+    ("Adot", "Crs", "DeltaN", "M0"),
+    ("Cuc", "Eccentricity", "Cus", "sqrtA"),
+    ("Toe", "Cic", "Omega0", "Cis"),
+    ("Io", "Crc", "omega", "OmegaDot"),
+    ("IDOT", "DeltaN0dot", "SatType", "Top"),
+    ("SISAI_oe", "SISAI_ocb", "SISAI_oc1", "SISAI_oc2"),
+)
+_BDS_CNV1 = _BDS_CNAV + (
+    ("ISC_B1Cd", "", "TGD_B1Cp", "TGD_B2ap"),
+    ("SISMAI", "health", "IntegrityFlags", "IODC"),
+    ("TransTime", "", "", "IODE"),
+)
+_BDS_CNV2 = _BDS_CNAV + (
+    ("", "ISC_B2ad", "TGD_B1Cp", "TGD_B2ap"),
+    ("SISMAI", "health", "IntegrityFlags", "IODC"),
+    ("TransTime", "", "", "IODE"),
+)
+_BDS_CNV3 = _BDS_CNAV + (("SISMAI", "health", "IntegrityFlags", "TGD_B2bI"), ("TransTime",))
 
 #: (system letter, message) -> the names of a record's orbit lines' fields, line by line
 #: ("" a spare), as the module text's table.
@@ -112,6 +142,9 @@ EPH_LAYOUTS: dict[tuple[str, str], tuple[tuple[str, ...], ...]] = {
     ("J", "CNAV"): _CNAV,
     ("G", "CNV2"): _CNV2,
     ("J", "CNV2"): _CNV2,
+    ("C", "CNV1"): _BDS_CNV1,
+    ("C", "CNV2"): _BDS_CNV2,
+    ("C", "CNV3"): _BDS_CNV3,
 }
 #: The health word's bit of each band in a CNAV record (L1 the high bit).
 CNAV_HEALTH_BITS = {"L1": 2, "L2": 1, "L5": 0}

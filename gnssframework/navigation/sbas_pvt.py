@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
+from ..signal.sbas_l1 import SBAS_L1
 from ..signal.spec import SPEED_OF_LIGHT_M_S as _C
 from .ephemeris import Ephemerides, satellite_state, single_frequency_clock_s
 from .pvt import PositionFix, solve_position_sv
@@ -304,7 +305,7 @@ def solve_position_sbas(
             f"{ephemeris.sv.size} ephemeris records must all be (S,)",
         )
     t = np.where(np.isfinite(tx), tx, 0.0)
-    carrier_hz = 1575.42e6
+    carrier_hz = SBAS_L1.carrier_freq_hz  # the L1 C/A user's clock: SBAS L1 corrects that signal
     clock = single_frequency_clock_s(ephemeris, satellite_state(ephemeris, t), carrier_hz)
     state = satellite_state(ephemeris, t - clock)
     dpos, dclock, fast, var_flt, reasons = sbas_satellite_corrections(

@@ -20,7 +20,7 @@ DATA = ROOT / "tests" / "data"
 FILES = sorted(
     p
     for p in DATA.iterdir()
-    if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos", ".txt", ".hex")
+    if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos", ".txt", ".hex", ".sbs")
 )
 
 KINDS = {
@@ -34,6 +34,7 @@ KINDS = {
     "pixel6.nmea": "nmea",
     "ublox-zed-f9p-nmea.log": "nmea",
     "gnssframework_receive_13s.rnx": "rinex-obs",
+    "sbas_sim_0759.rnx": "rinex-obs",
     "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
     "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav",
     "galileo_inav_20feb2022_05h.rnx": "rinex-nav",

@@ -66,7 +66,9 @@ def _key_order(eph) -> np.ndarray:
 )
 def test_shared_layouts_read_as_georinex_reads_them(path, count, tmp_path):
     ours = read_rinex_nav(path, "GJEC")  # a RINEX 4 file: `rinex4_nav`
-    ours = ours.subset(np.flatnonzero(ours.elements.get("CNAV", np.zeros(ours.sv.size)) == 0))
+    zeros = np.zeros(ours.sv.size)
+    lnav_style = (ours.elements.get("CNAV", zeros) == 0) & (ours.elements.get("BDS_CNAV", zeros) == 0)
+    ours = ours.subset(np.flatnonzero(lnav_style))  # georinex reads no CNAV or B-CNAV record
     theirs = read_rinex_nav(_as_rinex3(path, tmp_path / "v3.rnx"), "GJEC")
     assert ours.sv.size == theirs.sv.size == count
     a, b = ours.subset(_key_order(ours)), theirs.subset(_key_order(theirs))
@@ -125,7 +127,8 @@ def test_other_messages_are_left_out_and_counted():
     kinds = {(r.kind, r.sv, r.message) for r in records}
     assert ("EPH", "C20", "CNV1") in kinds and ("EPH", "R01", "FDMA") in kinds
     beidou = read_rinex_nav(BRD4, "C")
-    assert sorted(set(beidou.sv)) == ["C01", "C06", "C20"] and beidou.sv.size == 15  # D1/D2 only
+    assert sorted(set(beidou.sv)) == ["C01", "C06", "C20"] and beidou.sv.size == 15  # D1/D2 by default
+    assert list(read_rinex_nav(BRD4, "C", bds_messages="CNAV").sv) == ["C20"] * 5
     with pytest.raises(ValueError, match="GLONASS"):
         read_rinex_nav(BRD4, "R")
 
@@ -189,3 +192,39 @@ def test_a_gzipped_file_reads_as_the_plain_one(tmp_path):
     np.testing.assert_array_equal(a.sv, b.sv)
     np.testing.assert_array_equal(a.elements["sqrtA"], b.elements["sqrtA"])
     assert read_nav_file_info(packed).ggto == read_nav_file_info(BRD4).ggto
+
+
+def test_beidou_b_cnav1_records_share_d1s_orbit_and_keep_their_own_group_delays():
+    # DLR's file carries C20's D1 and B-CNAV1 (CNV1) records for the same hours: one orbit and
+    # one B3I clock written twice, each message with its own group delays.
+    from gnssframework.navigation.ephemeris import Ephemerides, clock_defined, single_frequency_clock_s
+
+    d1s = read_rinex_nav(BRD4, "C")
+    cnvs = read_rinex_nav(BRD4, "C", bds_messages="CNAV")
+    eph = Ephemerides.concatenate([d1s.subset(np.flatnonzero(d1s.sv == "C20")), cnvs])
+    c20 = np.arange(eph.sv.size)
+    cnav = eph.elements["BDS_CNAV"] == 1
+    assert cnav.sum() == 5 and (~cnav).sum() == 5
+    d1, cnv1 = eph.subset(c20[~cnav][:1]), eph.subset(c20[cnav][:1])
+    assert cnv1.toc_s[0] == d1.toc_s[0] and np.isnan(cnv1.elements["TGD"][0])
+    assert list(eph.iode[cnav]) == [0, 1, 2, 3, 4]  # CNV1's IODE, one a record
+    with pytest.raises(DataFileError, match="RINEX 4's"):
+        read_rinex_nav(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx", "C", bds_messages="CNAV")
+    for dt in (-3600.0, -1800.0, 0.0, 1800.0, 3600.0):
+        t = d1.toc_s[0] + 14.0 + dt  # GPS time of the records' BDT epoch, +- an hour
+        a, b = satellite_state(d1, t), satellite_state(cnv1, t)
+        # Two fits of one orbit (D1's and CNV1's rates Adot and dn0dot): within 0.5 m (GPS
+        # CNAV against LNAV: 1.04 m); one clock solution: within the af0 LSBs (2^-33 s: 4 cm).
+        assert np.linalg.norm(a.position_m - b.position_m) < 0.5
+        assert abs(a.clock_s[0] - b.clock_s[0]) * 299_792_458.0 < 0.04
+    state_d1, state_cnv1 = satellite_state(d1, t), satellite_state(cnv1, t)
+    b1i, b1c, b2a = 1561.098e6, 1575.42e6, 1176.45e6
+    # CNV1: the B1C and B2a pilots' own delays (BDS-SIS-ICD-B1C 7.6.2), no B1I clock (no T_GD1);
+    # D1: T_GD1 on every carrier.
+    assert single_frequency_clock_s(cnv1, state_cnv1, b1c)[0] == state_cnv1.clock_s[0] - cnv1.elements["TGD_B1Cp"][0]
+    assert single_frequency_clock_s(cnv1, state_cnv1, b2a)[0] == state_cnv1.clock_s[0] - cnv1.elements["TGD_B2ap"][0]
+    assert np.isnan(single_frequency_clock_s(cnv1, state_cnv1, b1i)[0])
+    for carrier in (b1i, b1c, b2a):
+        assert single_frequency_clock_s(d1, state_d1, carrier)[0] == state_d1.clock_s[0] - d1.elements["TGD"][0]
+    assert clock_defined(eph, b1c).all() and clock_defined(eph, b2a).all()
+    assert list(clock_defined(eph, b1i)) == list(~cnav)

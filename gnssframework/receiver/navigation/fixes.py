@@ -28,7 +28,7 @@ from ...navigation.weeks import full_week as nearest_week
 from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
-from .sbas_fixes import SBAS_COLUMNS, SbasOptions, day_of_year
+from .sbas_fixes import SBAS_COLUMNS, SbasOptions, day_of_year, sbas_corrects
 from ...navigation.pvt import PositionFix, solve_position
 from ...navigation.sbas_pvt import solve_position_sbas
 from ...signal.gps_l1ca import GPS_L1CA
@@ -176,7 +176,7 @@ def solve_epochs(
     ``sbas``: SBAS corrections from a message file (`sbas_fixes`; GPS L1 C/A only, not with
     ``raim`` or ``dual``): the columns `SBAS_COLUMNS`.
     """
-    if sbas is not None and (raim is not None or dual is not None or signal is not GPS_L1CA):
+    if sbas is not None and (raim is not None or dual is not None or not sbas_corrects(signal)):
         raise ConfigError(
             "sbas",
             "SBAS L1 corrects single-frequency GPS L1 C/A fixes: not with raim, a dual-frequency combination "

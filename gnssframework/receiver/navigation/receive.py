@@ -35,7 +35,7 @@ from .filtered import filter_epochs
 from .decoded import LNAV, navigation_message
 from .inav_stream import require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
-from .sbas_fixes import SbasOptions
+from .sbas_fixes import SbasOptions, sbas_corrects
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
@@ -121,7 +121,7 @@ def receive(
             "SBAS corrects the least-squares fixes of scalar tracking with its own protection levels: "
             "not with vector, nav_filter or raim",
         )
-    if sbas is not None and signal is not GPS_L1CA:
+    if sbas is not None and not sbas_corrects(signal):
         raise ConfigError("sbas", f"SBAS L1 corrects GPS L1 C/A fixes, not {signal.name}")
     message = navigation_message(signal)  # dates the channels: LNAV subframes, the I/NAV GST
     resolve_workers(workers, 1)  # a bad value refused before any work

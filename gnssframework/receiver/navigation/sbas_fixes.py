@@ -17,8 +17,10 @@ from dataclasses import dataclass, field
 from ...errors import ConfigError
 from ...navigation.sbas_files import SbasRecord, SbasReplay, busiest_prn
 from ...navigation.sbas_pvt import SBAS_MODES
+from ...signal.sbas_l1 import SBAS_L1
+from ...signal.spec import SignalSpec
 
-__all__ = ["SbasOptions", "SBAS_COLUMNS", "day_of_year"]
+__all__ = ["SbasOptions", "SBAS_COLUMNS", "day_of_year", "sbas_corrects"]
 
 #: Columns ``positions.csv`` adds with SBAS: DO-229's protection levels (m; NaN where the
 #: fix is the broadcast one) and the number of satellites corrected (0: not corrected).
@@ -66,3 +68,15 @@ def day_of_year(week: int, tow_s: float) -> float:
     """Day of the year of a GPS time, 1.0 at 1 January 00:00 (as RTKLIB's ``time2doy``)."""
     t = _GPS_EPOCH + dt.timedelta(seconds=604_800.0 * week + tow_s)
     return 1.0 + (t - dt.datetime(t.year, 1, 1)).total_seconds() / 86_400.0
+
+
+def sbas_corrects(signal: SignalSpec) -> bool:
+    """Whether SBAS L1 corrects ``signal``'s ranges: GPS's signal on SBAS L1's own carrier,
+    chip rate and code length, BPSK (L1 C/A; DO-229's corrections are for it, not for L1C)."""
+    return (
+        signal.system == "G"
+        and signal.carrier_freq_hz == SBAS_L1.carrier_freq_hz
+        and signal.chip_rate_hz == SBAS_L1.chip_rate_hz
+        and signal.code_length_chips == SBAS_L1.code_length_chips
+        and signal.subcarrier == SBAS_L1.subcarrier
+    )
