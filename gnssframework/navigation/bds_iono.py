@@ -63,15 +63,13 @@ def bds_pierce_point(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Latitude and longitude (rad) of the ray's pierce point through the ICD's shell, and
     the slant factor there (module text: the sphere of `BDS_EARTH_RADIUS_M`, the shell
-    `BDS_SHELL_HEIGHT_M` above it)."""
-    E = np.radians(np.asarray(elevation_deg, float))
-    A = np.radians(np.asarray(azimuth_deg, float))
-    phi_u, lam_u = np.radians(lat_deg), np.radians(lon_deg)
-    ratio = BDS_EARTH_RADIUS_M / (BDS_EARTH_RADIUS_M + BDS_SHELL_HEIGHT_M) * np.cos(E)
-    psi = np.pi / 2 - E - np.arcsin(ratio)
-    phi_m = np.arcsin(np.sin(phi_u) * np.cos(psi) + np.cos(phi_u) * np.sin(psi) * np.cos(A))
-    lam_m = lam_u + np.arcsin(np.sin(psi) * np.sin(A) / np.cos(phi_m))
-    return phi_m, lam_m, 1.0 / np.sqrt(1.0 - ratio**2)
+    `BDS_SHELL_HEIGHT_M` above it; `sbas_iono.shell_pierce_point`'s geometry)."""
+    from .sbas_iono import shell_pierce_point
+
+    lat, lon, slant = shell_pierce_point(
+        lat_deg, lon_deg, azimuth_deg, elevation_deg, BDS_EARTH_RADIUS_M, BDS_SHELL_HEIGHT_M
+    )
+    return np.radians(lat), np.radians(lon), slant
 
 
 def bds_klobuchar_delay_s(

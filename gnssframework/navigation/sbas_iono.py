@@ -44,6 +44,7 @@ __all__ = [
     "GIVE_VARIANCE_M2",
     "UDRE_VARIANCE_M2",
     "sbas_pierce_point",
+    "shell_pierce_point",
     "grid_vertical_delay",
     "mops_troposphere",
 ]
@@ -116,15 +117,21 @@ _MET_SEASON = np.array(
 )
 
 
-def sbas_pierce_point(
-    lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray, elevation_deg: np.ndarray
+def shell_pierce_point(
+    lat_deg: float,
+    lon_deg: float,
+    azimuth_deg: np.ndarray,
+    elevation_deg: np.ndarray,
+    earth_radius_m: float,
+    shell_height_m: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Latitude and longitude (deg, longitude in [-180, 180)) of each ray's pierce point
-    through DO-229's shell, and the slant factor :math:`F_{pp}` (module text)."""
+    """Latitude and longitude (deg, longitude in [-180, 180)) where each ray from a user on a
+    sphere of ``earth_radius_m`` meets a shell ``shell_height_m`` above it, and the slant
+    factor there (module text's formulas, over the pole too)."""
     E = np.radians(np.asarray(elevation_deg, float))
     A = np.radians(np.asarray(azimuth_deg, float))
     phi_u, lam_u = np.radians(lat_deg), np.radians(lon_deg)
-    ratio = SBAS_EARTH_RADIUS_M / (SBAS_EARTH_RADIUS_M + SBAS_SHELL_HEIGHT_M) * np.cos(E)
+    ratio = earth_radius_m / (earth_radius_m + shell_height_m) * np.cos(E)
     psi = np.pi / 2 - E - np.arcsin(ratio)
     phi = np.arcsin(np.sin(phi_u) * np.cos(psi) + np.cos(phi_u) * np.sin(psi) * np.cos(A))
     turn = np.arcsin(np.clip(np.sin(psi) * np.sin(A) / np.cos(phi), -1.0, 1.0))
@@ -135,6 +142,14 @@ def sbas_pierce_point(
     lam = np.where(over_pole, lam_u + np.pi - turn, lam_u + turn)
     lon = (np.degrees(lam) + 180.0) % 360.0 - 180.0
     return np.degrees(phi), lon, 1.0 / np.sqrt(1.0 - ratio**2)
+
+
+def sbas_pierce_point(
+    lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray, elevation_deg: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Latitude and longitude (deg, longitude in [-180, 180)) of each ray's pierce point
+    through DO-229's shell, and the slant factor :math:`F_{pp}` (module text)."""
+    return shell_pierce_point(lat_deg, lon_deg, azimuth_deg, elevation_deg, SBAS_EARTH_RADIUS_M, SBAS_SHELL_HEIGHT_M)
 
 
 def _cell(lat_deg: float, lon_deg: float) -> tuple[float, float, float] | None:
