@@ -59,6 +59,7 @@ from gnssframework.io.rinex import write_rinex3_obs  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state, single_frequency_clock_s  # noqa: E402
 from gnssframework.navigation.sbas_files import SbasRecord, write_rtklib_sbs  # noqa: E402
 from gnssframework.navigation.sbas_iono import mops_troposphere, sbas_pierce_point  # noqa: E402
+from gnssframework.receiver.navigation.sbas_fixes import day_of_year  # noqa: E402
 
 DATA = HERE.parent / "tests" / "data"
 NAV = DATA / "07590920.05n"
@@ -84,11 +85,6 @@ RTKLIB_OPTIONS = {
     "out-timendec": "3",
 }
 AIM_M = 0.01
-
-
-def day_of_year(tow_s: float) -> float:
-    """RTKLIB's ``time2doy``: 1.0 at 1 January 00:00, counting days since (GPST)."""
-    return 92.0 + (tow_s - 6 * 86_400.0) / 86_400.0
 
 
 def scenario():
@@ -127,7 +123,7 @@ def pseudoranges(eph, errors) -> np.ndarray:
         az, el, _ = (np.asarray(v) for v in pymap3d.ecef2aer(*rot.T, lat, lon, h))
         lat_pp, lon_pp, slant = sbas_pierce_point(lat, lon, az, el)
         iono = slant * vertical_delay_m(lat_pp, lon_pp)
-        tropo, _ = mops_troposphere(lat, h, el, day_of_year(t_rx))
+        tropo, _ = mops_troposphere(lat, h, el, day_of_year(WEEK, t_rx))
         out.append(C * (tau + CLOCK_RX_S - clock_s) + iono + tropo)
     return np.array(out)
 
@@ -177,7 +173,7 @@ def our_fixes(obs_path: Path, sbs_path: Path, range_rate: bool = False):
         eph = eph_all.select(sv, float(t))
         corr = SbasCorrections.from_messages(gathered_until(records, WEEK, float(t), GEO_PRN))
         tx = float(t) - pr / C
-        doy = day_of_year(float(t))
+        doy = day_of_year(WEEK, float(t))
         fixes.append(solve_position_sbas(pr, tx, eph, corr, day_of_year=doy, range_rate=range_rate))
         plain.append(solve_position(pr, tx, eph, troposphere=True))
     return tow, fixes, plain
