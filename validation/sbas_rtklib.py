@@ -155,8 +155,7 @@ def our_fixes(obs_path: Path, sbs_path: Path, range_rate: bool = False):
 
     from gnssframework.navigation.ephemeris import gps_seconds_of_week
     from gnssframework.navigation.pvt import solve_position
-    from gnssframework.navigation.sbas_content import SbasCorrections
-    from gnssframework.navigation.sbas_files import gathered_until, read_sbas_messages
+    from gnssframework.navigation.sbas_files import SbasReplay, read_sbas_messages
     from gnssframework.navigation.sbas_pvt import solve_position_sbas
 
     with warnings.catch_warnings():
@@ -165,13 +164,14 @@ def our_fixes(obs_path: Path, sbs_path: Path, range_rate: bool = False):
     tow = gps_seconds_of_week(data.time.values)
     records = read_sbas_messages(sbs_path)
     eph_all = read_rinex_nav(NAV, "G")
+    replay = SbasReplay(records, GEO_PRN, history_s=np.inf)  # the whole stream, as RTKLIB reads it
     fixes, plain = [], []
     for k, t in enumerate(tow):
         c1 = data["C1C"].isel(time=k)
         sv = [str(s) for s, v in zip(c1.sv.values, c1.values) if np.isfinite(v)]
         pr = np.array([float(c1.sel(sv=s)) for s in sv])
         eph = eph_all.select(sv, float(t))
-        corr = SbasCorrections.from_messages(gathered_until(records, WEEK, float(t), GEO_PRN))
+        corr = replay.at(WEEK, float(t))
         tx = float(t) - pr / C
         doy = day_of_year(WEEK, float(t))
         fixes.append(solve_position_sbas(pr, tx, eph, corr, day_of_year=doy, range_rate=range_rate))

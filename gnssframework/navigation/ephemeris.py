@@ -53,6 +53,7 @@ from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.gps_l2c import GPS_L2C
 from ..signal.gps_l5 import GPS_L5I
 from ..signal.spec import SignalSpec
+from .weeks import GPS_EPOCH
 
 __all__ = [
     "Ephemerides",
@@ -111,7 +112,7 @@ _SYSTEM_NAMES = {
 }
 _GEO_TILT_RAD = np.radians(-5.0)  # BDS GEO: rotation about X of BDS-SIS-ICD-B1I 5.2.4.12
 _HALF_WEEK_S = 302_400.0
-_GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
+_GPS_EPOCH = np.datetime64(GPS_EPOCH, "ns")
 
 #: georinex names of the Keplerian elements (IS-GPS-200 Table 20-III).
 ORBIT_FIELDS = (

@@ -30,11 +30,11 @@ from ..errors import DataFileError
 from . import fec
 from .sbas_content import SbasCorrections, decode_content
 from .sbas_message import MESSAGE_BITS, parse_message
+from .weeks import gps_week_tow
 
-__all__ = ["SbasRecord", "read_sbas_messages", "write_rtklib_sbs", "gathered_until", "busiest_prn", "SbasReplay"]
+__all__ = ["SbasRecord", "read_sbas_messages", "write_rtklib_sbs", "busiest_prn", "SbasReplay"]
 
 _CRC_BITS = 226
-_GPS_EPOCH = _dt.datetime(1980, 1, 6)
 
 
 @dataclass(frozen=True)
@@ -72,15 +72,14 @@ def _ems(parts: list[str]) -> tuple[int, float, int, np.ndarray]:
     sec = float(parts[6])
     year = yy + (2000 if yy < 70 else 1900)
     t = _dt.datetime(year, mo, dd, hh, mi) + _dt.timedelta(seconds=sec)
-    seconds = (t - _GPS_EPOCH).total_seconds()
-    week = int(seconds // 604_800)
+    week, tow_s = gps_week_tow(t)
     bits = _bits(parts[8])
     if bits.size < MESSAGE_BITS:
         raise ValueError(f"{bits.size} bits, an EMS message holds all 250")
     bits = bits[:MESSAGE_BITS].astype(np.uint8)
     if not parse_message(bits)[2]:
         raise ValueError("its CRC-24Q does not hold")
-    return week, seconds - 604_800 * week, prn, bits
+    return week, tow_s, prn, bits
 
 
 def read_sbas_messages(path: str | Path) -> list[SbasRecord]:
@@ -123,17 +122,6 @@ def write_rtklib_sbs(path: str | Path, records: list[SbasRecord]) -> Path:
         )
     p.write_text("\n".join(rows) + "\n")
     return p
-
-
-def gathered_until(records: list[SbasRecord], week: int, tow_s: float, prn: int) -> list[tuple[float, int, np.ndarray]]:
-    """GEO ``prn``'s messages sent at or before ``week``, ``tow_s``, as
-    `sbas_content.SbasCorrections.from_messages` takes them: ``(seconds of week, PRN, bits)``,
-    their seconds counted from the start of ``week`` (negative for the week before)."""
-    return [
-        (r.tow_s + 604_800.0 * (r.week - week), r.prn, r.bits)
-        for r in records
-        if r.prn == prn and (r.week - week) * 604_800.0 + r.tow_s <= tow_s
-    ]
 
 
 def busiest_prn(records: list[SbasRecord]) -> int:

@@ -8,7 +8,15 @@ otherwise (a navigation file's record, the receiver's assistance), within half a
 
 from __future__ import annotations
 
-__all__ = ["full_week"]
+import datetime as _dt
+
+__all__ = ["GPS_EPOCH", "WEEK_S", "full_week", "gps_calendar", "gps_week_tow"]
+
+#: GPS time's origin, 1980-01-06 00:00:00 (IS-GPS-200 20.3.3.3.1.1): the calendar of a GPS
+#: week and time of week, without leap seconds (subtract them for UTC).
+GPS_EPOCH = _dt.datetime(1980, 1, 6)
+#: Seconds in a GPS week.
+WEEK_S = 604_800
 
 
 def full_week(low_bits: int, bits: int, near_week: int) -> int:
@@ -21,3 +29,16 @@ def full_week(low_bits: int, bits: int, near_week: int) -> int:
     week of an ephemeris file)."""
     cycle = 1 << bits
     return int(near_week + ((int(low_bits) - near_week + cycle // 2) % cycle) - cycle // 2)
+
+
+def gps_calendar(week: int, tow_s: float) -> _dt.datetime:
+    """Calendar time (GPS time scale, naive ``datetime``) of a GPS week and time of week:
+    ``GPS_EPOCH + week weeks + tow_s`` (a negative or over-long ``tow_s`` rolls the week)."""
+    return GPS_EPOCH + _dt.timedelta(weeks=int(week), seconds=float(tow_s))
+
+
+def gps_week_tow(t: _dt.datetime) -> tuple[int, float]:
+    """GPS week and seconds of week of a calendar time given in the GPS time scale (naive)."""
+    seconds = (t - GPS_EPOCH).total_seconds()
+    week = int(seconds // WEEK_S)
+    return week, seconds - week * WEEK_S

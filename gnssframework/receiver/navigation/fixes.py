@@ -200,10 +200,11 @@ def solve_epochs(
         if len(have) < 4:
             continue
         idx = ok[have]
+        records_used = Ephemerides.concatenate([records[j] for j in have])
         fix = solve_position(
             obs.pseudorange_m[e, idx],
             obs.transmit_s[e, idx],
-            Ephemerides.concatenate([records[j] for j in have]),
+            records_used,
             doppler_hz=obs.doppler_hz[e, idx],
             iono=klobuchar,
             troposphere=troposphere,
@@ -221,7 +222,6 @@ def solve_epochs(
             dual=dual,
         )
         if replay is not None:
-            records_used = Ephemerides.concatenate([records[j] for j in have])
             tow_e = float(obs.rx_time_s[e])
             if sbas_week is None:  # the observables' week, else (not decoded) the messages'
                 sbas_week = week if week >= 0 else replay.week_of(tow_e)
@@ -231,8 +231,8 @@ def solve_epochs(
                 records_used,
                 replay.at(sbas_week, tow_e),
                 day_of_year=day_of_year(sbas_week, tow_e),
-                mode=sbas.mode if sbas is not None else "pa",
-                sigma_noise_m=sbas.sigma_noise_m if sbas is not None else 0.36,
+                mode=sbas.mode,
+                sigma_noise_m=sbas.sigma_noise_m,
                 elevation_mask_deg=elevation_mask_deg,
                 initial_ecef_m=fix.position_ecef_m if fix is not None else None,
             )

@@ -31,13 +31,13 @@ older 301-336 of u-blox's extended NMEA 4.0 is not used).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
 import pynmea2
 
 from ...errors import ConfigError
+from ...navigation.weeks import gps_calendar
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .fixes import PositionTable
@@ -65,7 +65,6 @@ def nmea_talker(*signals: SignalSpec, default: SignalSpec = GPS_L1CA) -> str:
     return talkers.pop() if len(talkers) == 1 else "GN"
 
 
-_GPS_EPOCH = datetime(1980, 1, 6)
 #: Satellite ID offset of NMEA 0183 4.11 per talker (QZSS PRN 193 is GQ satellite 1).
 _NMEA_ID_OFFSET = {"GQ": 192}
 #: GNSS system ID of NMEA 0183 4.10/4.11 (GSA's last field) per talker.
@@ -175,7 +174,7 @@ def nmea_sentences(
     out = []
     c = table.columns
     for k in range(len(table)):
-        utc = _GPS_EPOCH + timedelta(weeks=int(c["gps_week"][k]), seconds=float(c["tow_s"][k]) - leap_seconds)
+        utc = gps_calendar(int(c["gps_week"][k]), float(c["tow_s"][k]) - leap_seconds)
         clock = utc.strftime("%H%M%S.") + f"{utc.microsecond // 10_000:02d}"
         lat, ns = _angle(float(c["lat_deg"][k]), 2, "NS")
         lon, ew = _angle(float(c["lon_deg"][k]), 3, "EW")

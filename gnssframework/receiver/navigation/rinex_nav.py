@@ -58,7 +58,7 @@ where decoded, and one ``LEAP SECONDS``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +67,7 @@ from ...errors import ConfigError
 from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav_params import InavIonoTime
-from ...navigation.weeks import full_week
+from ...navigation.weeks import full_week, gps_calendar
 from ...navigation.lnav import WEEK_S, IonoUtc
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
@@ -85,7 +85,6 @@ BDT_OFFSET_S = 14.0
 INAV_E1B_DATA_SOURCES = 1 + 512
 #: ... and of an F/NAV E5a-I record: bit 1 (F/NAV E5a-I) and bit 8 (clock for E5a,E1).
 FNAV_E5A_DATA_SOURCES = 2 + 256
-_GPS_EPOCH = datetime(1980, 1, 6)
 #: The last field of BROADCAST ORBIT 7 per system: GPS's fit interval in hours (4: the flag
 #: 0 of IS-GPS-200 20.3.3.4.3.1), QZSS's fit interval flag itself (0: 2 hours; RINEX 3.04 A14).
 FIT_INTERVAL = {"G": 4.0, "J": 0.0}
@@ -122,7 +121,7 @@ def _week_near(week: int, tow_s: float, t_s: float) -> int:
 
 
 def _calendar(week: int, tow_s: float) -> datetime:
-    return _GPS_EPOCH + timedelta(weeks=int(week), seconds=float(tow_s))
+    return gps_calendar(week, tow_s)
 
 
 def decoded_records(

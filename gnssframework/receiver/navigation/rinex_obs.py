@@ -19,12 +19,13 @@ TYPES`` line per system and its epochs in GPS time (the fixes' reference clock).
 
 from __future__ import annotations
 
-from datetime import datetime, timedelta
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.weeks import gps_calendar
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .observables import Observables
@@ -40,7 +41,6 @@ OBS_TYPES = ("C1C", "L1C", "D1C", "S1C")
 #: steered to GPS time and RINEX counts its weeks continuously with GPS's, so the calendar
 #: of an epoch is computed the same way.
 TIME_SYSTEMS = {"E": "GAL"}
-_GPS_EPOCH = datetime(1980, 1, 6)
 
 
 def _line(content: str, label: str) -> str:
@@ -50,7 +50,7 @@ def _line(content: str, label: str) -> str:
 def _calendar(week: int, tow_s: float) -> tuple[datetime, float]:
     """Calendar time (whole seconds) and the fraction of a second of a GPS week and tow."""
     whole = np.floor(tow_s)
-    return _GPS_EPOCH + timedelta(weeks=int(week), seconds=float(whole)), float(tow_s - whole)
+    return gps_calendar(week, float(whole)), float(tow_s - whole)
 
 
 def _strength(cn0_dbhz: float) -> int:

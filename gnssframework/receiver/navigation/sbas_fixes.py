@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from ...errors import ConfigError
 from ...navigation.sbas_files import SbasRecord, SbasReplay, busiest_prn
 from ...navigation.sbas_pvt import SBAS_MODES
+from ...navigation.weeks import gps_calendar
 from ...signal.sbas_l1 import SBAS_L1
 from ...signal.spec import SignalSpec
 
@@ -25,7 +26,6 @@ __all__ = ["SbasOptions", "SBAS_COLUMNS", "day_of_year", "sbas_corrects"]
 #: Columns ``positions.csv`` adds with SBAS: DO-229's protection levels (m; NaN where the
 #: fix is the broadcast one) and the number of satellites corrected (0: not corrected).
 SBAS_COLUMNS = ("hpl_m", "vpl_m", "sbas_sats")
-_GPS_EPOCH = dt.datetime(1980, 1, 6)
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class SbasOptions:
 
 def day_of_year(week: int, tow_s: float) -> float:
     """Day of the year of a GPS time, 1.0 at 1 January 00:00 (as RTKLIB's ``time2doy``)."""
-    t = _GPS_EPOCH + dt.timedelta(seconds=604_800.0 * week + tow_s)
+    t = gps_calendar(week, tow_s)
     return 1.0 + (t - dt.datetime(t.year, 1, 1)).total_seconds() / 86_400.0
 
 

@@ -15,23 +15,22 @@ from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
-from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.weeks import gps_calendar
 from .fixes import POSITION_COLUMNS, PositionTable
 
 __all__ = ["track_geojson", "write_geojson", "write_kml"]
 
-_GPS_EPOCH = datetime(1980, 1, 6)
 _KML_NS = "http://www.opengis.net/kml/2.2"
 
 
 def _utc(table: PositionTable, k: int, leap_seconds: int) -> str:
     c = table.columns
-    t = _GPS_EPOCH + timedelta(weeks=int(c["gps_week"][k]), seconds=float(c["tow_s"][k]) - leap_seconds)
+    t = gps_calendar(int(c["gps_week"][k]), float(c["tow_s"][k]) - leap_seconds)
     return t.isoformat(timespec="milliseconds") + "Z"
 
 
