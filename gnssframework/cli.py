@@ -756,26 +756,40 @@ def _raim_from_args(args: argparse.Namespace):
     return RaimOptions(method=args.raim, **given)
 
 
+def _sbas_flag(args: argparse.Namespace) -> str | None:
+    """The SBAS source flag given to ``receive`` (``--sbas-messages`` first), None for neither."""
+    if getattr(args, "sbas_messages", None):
+        return "--sbas-messages"
+    return "--sbas-signal" if getattr(args, "sbas_signal", False) else None
+
+
 def _sbas_from_args(args: argparse.Namespace):
-    """``receive --sbas-messages FILE [--sbas-prn N --sbas-mode M]`` as `sbas_fixes.SbasOptions`
-    (None without the file)."""
-    if not getattr(args, "sbas_messages", None):
-        for flag in ("sbas_prn", "sbas_mode", "sbas_sigma_noise"):
-            if getattr(args, flag, None) is not None:
-                raise ConfigError(f"--{flag.replace('_', '-')}", "is a setting of --sbas-messages: add it or drop this")
+    """``receive --sbas-messages FILE`` and/or ``--sbas-signal`` ``[--sbas-prn N --sbas-mode
+    M --sbas-sigma-noise S]`` as `sbas_fixes.SbasOptions` (None without either)."""
+    flag = _sbas_flag(args)
+    if flag is None:
+        for setting in ("sbas_prn", "sbas_mode", "sbas_sigma_noise"):
+            if getattr(args, setting, None) is not None:
+                raise ConfigError(
+                    f"--{setting.replace('_', '-')}",
+                    "is a setting of --sbas-messages or --sbas-signal: add one or drop this",
+                )
         return None
     from .navigation.sbas_files import read_sbas_messages
     from .receiver.navigation.sbas_fixes import SbasOptions
 
     if args.raim or getattr(args, "tracking", None) == "vector" or getattr(args, "nav_filter", None):
         raise ConfigError(
-            "--sbas-messages",
+            flag,
             "corrects the least-squares fixes of scalar tracking with DO-229's protection levels: "
             "not with --raim, --tracking vector or --nav-filter",
         )
 
     noise = {} if args.sbas_sigma_noise is None else {"sigma_noise_m": args.sbas_sigma_noise}
-    return SbasOptions(tuple(read_sbas_messages(args.sbas_messages)), args.sbas_prn, args.sbas_mode or "pa", **noise)
+    records = tuple(read_sbas_messages(args.sbas_messages)) if args.sbas_messages else ()
+    return SbasOptions(
+        records, args.sbas_prn, args.sbas_mode or "pa", **noise, from_signal=bool(getattr(args, "sbas_signal", False))
+    )
 
 
 def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
@@ -991,14 +1005,14 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if "," in args.signal:
         if args.ionosphere_free:
             raise ConfigError("--ionosphere-free", "combines one signal with --second-signal: give one --signal")
-        if args.sbas_messages:
-            raise ConfigError("--sbas-messages", "SBAS L1 corrects GPS L1 C/A fixes: give --signal gps-l1ca alone")
+        if _sbas_flag(args):
+            raise ConfigError(_sbas_flag(args), "SBAS L1 corrects GPS L1 C/A fixes: give --signal gps-l1ca alone")
         return _receive_several(args, live, outputs)
     signal = _signal_from_args(args)
     require_positioning(signal)  # dated from LNAV, I/NAV or CNAV: another message would be misread
     dual = _check_ionosphere_free(args, signal)  # refused before any tracking
-    if dual is not None and args.sbas_messages:
-        raise ConfigError("--sbas-messages", "SBAS L1 corrects single-frequency fixes: not with --ionosphere-free")
+    if dual is not None and _sbas_flag(args):
+        raise ConfigError(_sbas_flag(args), "SBAS L1 corrects single-frequency fixes: not with --ionosphere-free")
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
@@ -1178,6 +1192,18 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     written += extra
     for note in notes:
         print(f"note: {note}")
+    if result.sbas is not None:  # --sbas-signal: the GEOs' messages, a row each
+        from .receiver.navigation.sbas_stream import write_sbas_csv
+
+        written.append(write_sbas_csv(out, result.sbas))
+        for channel in result.sbas:
+            good = channel.good
+            print(
+                f"SBAS PRN {channel.prn}: {len(good)} messages (types "
+                f"{' '.join(str(m.message_type) for m in good) or 'none'}), {len(channel.failures)} CRC failures"
+            )
+        for note in result.sbas_notes:
+            print(f"note: {note}")
     nav_name = filters.nav_filter.name if filters.nav_filter is not None else None
     used = f"channel filter {config.channel_filter}, " + (
         f"nav filter {nav_name} from the first least-squares fix" if nav_name else "least squares per epoch"
@@ -1900,23 +1926,30 @@ def build_parser() -> argparse.ArgumentParser:
         "epoch the corrections do not cover keeps its broadcast fix with sbas_sats 0)",
     )
     p.add_argument(
+        "--sbas-signal",
+        action="store_true",
+        help="track the recording's SBAS L1 GEOs too (PRN 120-158, or --sbas-prn's) and correct the GPS L1 "
+        "C/A fixes with the messages they carry, each dated by the GPS channels' epochs (DIR/sbas.csv: "
+        "one row a message); with --sbas-messages the file's and the signal's together",
+    )
+    p.add_argument(
         "--sbas-prn",
         type=int,
         metavar="PRN",
-        help="with --sbas-messages: the GEO followed (default: the file's busiest)",
+        help="with --sbas-messages or --sbas-signal: the GEO followed (default: the one with the most messages)",
     )
     p.add_argument(
         "--sbas-sigma-noise",
         type=float,
         metavar="M",
-        help="with --sbas-messages: the code noise (m) in the protection levels' sigma_air (default 0.36, "
+        help="with --sbas-messages or --sbas-signal: the code noise (m) in the protection levels' sigma_air (default 0.36, "
         "DO-229's airborne bound for carrier-smoothed code; this receiver's unsmoothed code has about "
         "1.7 m at 45 dB-Hz)",
     )
     p.add_argument(
         "--sbas-mode",
         choices=("pa", "npa"),
-        help="with --sbas-messages: the horizontal protection level's factor, precision approach (6.0, "
+        help="with --sbas-messages or --sbas-signal: the horizontal protection level's factor, precision approach (6.0, "
         "the default) or en route to non-precision approach (6.18)",
     )
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
@@ -2039,6 +2072,7 @@ OPTION_OF_PARAMETER = {
     "raim": "--raim",
     "sbas": "--sbas-messages",
     "sbas_messages": "--sbas-messages",
+    "sbas_signal": "--sbas-signal",
     "sbas_mode": "--sbas-mode",
     "sbas_prn": "--sbas-prn",
     "sbas_sigma_noise": "--sbas-sigma-noise",

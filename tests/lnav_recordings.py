@@ -2,18 +2,21 @@
 broadcast records (tests/data/07590920.05n) seen from the station of
 07590920.05o, each carrying its LNAV with the code phase,
 Doppler and data timing of the geometry, 45 dB-Hz, complex int16 SigMF at 2.046 MHz; a
-satellite may be blanked over an interval (no signal, the noise goes on)."""
+satellite may be blanked over an interval (no signal, the noise goes on); an SBAS GEO may be
+added (`Geo`: its 500 symbol/s stream at a fixed range, no Doppler)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from gnssframework.navigation import lnav
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.if_samples import generate_if_samples
+from gnssframework.signal.sbas_l1 import SBAS_L1
 from gnssframework.navigation.ephemeris import satellite_state
 from light_time import C, signal_flight  # noqa: F401 (C: the receiver tests import it from here)
 from noisy_recording import write_noisy_recording
@@ -28,6 +31,19 @@ FS = 2.046e6
 # 25 of subframe 5 would have none).
 TOW0 = 518_706.0 - 2.6
 CHUNK_S = 0.5
+
+
+@dataclass(frozen=True)
+class Geo:
+    """An SBAS GEO in a recording: PRN ``prn`` sending ``symbols`` (±1, 2 ms each) from GPS
+    time ``first_symbol_tow`` (its SNT, steered to GPS time), received ``delay_s`` later
+    (a GEO's range, held fixed: no Doppler), at ``cn0_dbhz``."""
+
+    prn: int
+    symbols: np.ndarray
+    first_symbol_tow: float
+    delay_s: float = 0.125
+    cn0_dbhz: float = 45.0
 
 
 def _satellite_time(eph, t_rx):
@@ -68,6 +84,7 @@ def write_lnav_recording(
     code_delay: tuple[int, float, float] | None = None,
     sample_rate_hz: float = FS,
     iono_m: np.ndarray | None = None,
+    geo: Geo | None = None,
 ) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
@@ -78,7 +95,7 @@ def write_lnav_recording(
     start on (a code fault: multipath-like or spoofed); ``sample_rate_hz`` the file's rate
     (`FS`, 2 samples a chip, by default); ``iono_m`` each satellite's ionospheric code delay
     on L1 (m, constant: the code and its data bits sent that much earlier, the carrier's
-    advance left out)."""
+    advance left out); ``geo`` an SBAS GEO's signal added (`Geo`)."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * sample_rate_hz))
     t_sv0 = _satellite_time(sats, np.array(tow0))
@@ -120,6 +137,22 @@ def write_lnav_recording(
                     noise=False,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+            if geo is not None:
+                t_geo = tow0 + t0 - geo.delay_s  # the GEO's time of the chunk's first sample
+                x += generate_if_samples(
+                    geo.prn,
+                    CHUNK_S,
+                    sample_rate_hz,
+                    0.0,
+                    geo.cn0_dbhz,
+                    rng,
+                    code_phase_chips=(t_geo * 1e3 % 1.0) * 1023,
+                    complex_samples=True,
+                    data_bits=geo.symbols,
+                    first_bit_edge_s=geo.first_symbol_tow - t_geo,
+                    noise=False,
+                    signal=SBAS_L1,
+                ).samples
             yield x
 
     return write_noisy_recording(path, chunks(), sample_rate_hz, rng)

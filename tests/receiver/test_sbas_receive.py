@@ -17,16 +17,15 @@ import pytest
 
 from gnssframework import registry
 from gnssframework.cli import main
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.sbas_files import write_rtklib_sbs
-from gnssframework.navigation.sbas_iono import mops_troposphere, sbas_pierce_point
 from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.fixes import solve_epochs, write_positions_csv
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.sbas_fixes import SbasOptions, day_of_year
 from lnav_recordings import NAV, STATION, TOW0, WEEK, _strongest, write_lnav_recording
-from sbas_streams import sbas_stream, vertical_delay_m
+from sbas_streams import range_delays, sbas_stream
 
 DURATION_S = 10.5
 CLOCK_ERRORS_M = np.array([18.0, -24.0, 12.0, -15.0, 30.0])
@@ -36,19 +35,10 @@ CN0_DBHZ = 50.0
 SIGMA_M = 1.7 * 10 ** (-(CN0_DBHZ - 45.0) / 20)
 
 
-def _delays(sats):
-    """Each satellite's code delay (m) and the fast corrections that take its clock part out."""
-    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
-    az, el, _ = pymap3d.ecef2aer(*satellite_state(sats, TOW0 + 5.0).position_m.T, lat, lon, h)
-    lat_pp, lon_pp, slant = sbas_pierce_point(lat, lon, np.asarray(az), np.asarray(el))
-    tropo, _ = mops_troposphere(lat, h, np.asarray(el), day_of_year(WEEK, TOW0))
-    return CLOCK_ERRORS_M + slant * vertical_delay_m(lat_pp, lon_pp) + tropo, -CLOCK_ERRORS_M
-
-
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     sats = _strongest(read_rinex_nav(NAV), TOW0, 5)
-    delay_m, prc_m = _delays(sats)
+    delay_m, prc_m = range_delays(sats, STATION, TOW0 + 5.0, day_of_year(WEEK, TOW0), CLOCK_ERRORS_M)
     folder = tmp_path_factory.mktemp("sbas")
     path = write_lnav_recording(
         folder / "five.sigmf-data", sats, TOW0, DURATION_S, seed=39, iono_m=delay_m, cn0_dbhz=CN0_DBHZ
@@ -110,7 +100,10 @@ def tiny(tmp_path_factory):
 @pytest.mark.parametrize(
     ("extra", "says"),
     [
-        (["--sbas-prn", "137"], "--sbas-prn: is a setting of --sbas-messages"),
+        (["--sbas-prn", "137"], "--sbas-prn: is a setting of --sbas-messages or --sbas-signal"),
+        (["--sbas-signal", "--sbas-prn", "100"], "--sbas-prn: an SBAS GEO's PRN is 120-158, got 100"),
+        (["--sbas-signal", "--nav-filter", "ekf-pv"], "--sbas-signal: corrects the least-squares fixes"),
+        (["--sbas-signal", "--signal", "gps-l1ca,galileo-e1b-boc11"], "--sbas-signal: SBAS L1 corrects"),
         (["--sbas-messages", "{sbs}", "--sbas-prn", "120"], "--sbas-prn: no message of PRN 120"),
         (["--sbas-messages", "{sbs}", "--sbas-sigma-noise", "0"], "--sbas-sigma-noise: must be positive"),
         (["--sbas-messages", "{sbs}", "--raim"], "--sbas-messages: corrects the least-squares fixes"),

@@ -246,6 +246,8 @@ def solve_epochs(
                 sbas_rows.append((corrected.hpl_m, corrected.vpl_m, int(corrected.fix.used.sum())))
             elif fix is not None:
                 sbas_rows.append((np.nan, np.nan, 0))
+        elif sbas is not None and fix is not None:  # no message of the GEO (none decoded): broadcast fixes
+            sbas_rows.append((np.nan, np.nan, 0))
         if fix is None:
             continue
         rows.append(fix)
@@ -279,7 +281,7 @@ def solve_epochs(
             vpl_m=np.array([f.vpl_m for f in rows], float),
             raim=np.array([f.raim for f in rows], dtype="<U11"),
         )
-    if replay is not None:
+    if sbas is not None:
         table = np.array(sbas_rows, float).reshape(-1, 3)
         columns.update(hpl_m=table[:, 0], vpl_m=table[:, 1], sbas_sats=table[:, 2].astype(int))
     return PositionTable(

@@ -5,7 +5,10 @@ the recording (`gnssframework.receiver.channels.SampleTracker`), decodes every c
 LNAV and its transmit times (`observables.channel_timing`), forms the observables at
 common epochs and solves each epoch (`fixes.solve_epochs`); with a ``nav_filter`` (a
 registry reference), that filter runs on the pseudoranges and Dopplers from the first
-fix on (`filtered.filter_epochs`) and gives the positions.
+fix on (`filtered.filter_epochs`) and gives the positions. With SBAS from the signal
+(`sbas_fixes.SbasOptions.from_signal`) the recording's SBAS L1 GEOs are acquired and tracked
+too (`sbas_stream.channel_sbas`), their messages dated by the GPS channels' epochs
+(`sbas_fixes.signal_records`) and the fixes corrected with them.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import pymap3d
 
 from ..acquisition.report import acquire_recording
 from ..acquisition.search import Acquisition, AcquisitionResult
-from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..channels import SampleTracker, TrackingConfig, TrackingResult, signal_tracking_config
 from ..channels.factory import StageFilters
 from ..channels.groups import resolve_workers, track_in_groups
 from ..frontend.recording import Recording
@@ -30,12 +33,14 @@ from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.sbas_l1 import SBAS_L1
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
 from .decoded import LNAV, navigation_message
 from .inav_stream import require_lnav
-from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
-from .sbas_fixes import SbasOptions, sbas_corrects
+from .fixes import INTEGRITY_COLUMNS, PositionTable, full_week, solve_epochs
+from .sbas_fixes import SbasOptions, merged_records, sbas_corrects, signal_records
+from .sbas_stream import SbasChannel, channel_sbas
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
@@ -54,6 +59,10 @@ class ReceiveResult:
     least_squares: PositionTable | None = None
     #: With ``vector``: the navigation filter's states after the hand-over.
     vector: VectorSolution | None = None
+    #: With SBAS from the signal: each SBAS L1 channel's messages (`sbas_stream.SbasChannel`),
+    #: and one line per GEO tracked whose messages could not be read.
+    sbas: list[SbasChannel] | None = None
+    sbas_notes: tuple[str, ...] = ()
 
 
 def receive(
@@ -114,7 +123,10 @@ def receive(
     processes (`channels.groups.track_in_groups`: the same records); one process with
     ``vector``, ``observe`` or a live stream. ``sbas`` corrects the least-squares fixes with
     SBAS messages from a file (`sbas_fixes.SbasOptions`; GPS L1 C/A, scalar tracking, no
-    ``nav_filter`` and no ``raim``): positions gain the columns `sbas_fixes.SBAS_COLUMNS`."""
+    ``nav_filter`` and no ``raim``): positions gain the columns `sbas_fixes.SBAS_COLUMNS`;
+    with ``sbas.from_signal`` the recording's SBAS L1 GEOs are tracked under ``config``'s
+    settings (their coherent time their 2 ms symbol) and their messages added
+    (``ReceiveResult.sbas``)."""
     if sbas is not None and (vector is not None or nav_filter is not None or raim is not None):
         raise ConfigError(
             "sbas",
@@ -225,6 +237,13 @@ def receive(
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
     iono = _fallback(obs, iono_fallback)
+    sbas_channels: list[SbasChannel] | None = None
+    sbas_notes: tuple[str, ...] = ()
+    if sbas is not None and sbas.from_signal:
+        week = full_week(obs.week, reference_week, obs.week_bits)
+        sbas, sbas_channels, sbas_notes = _sbas_from_signal(
+            recording, acquisition, config, sbas, obs, week, duration_s, workers
+        )
     table = solve_epochs(
         obs,
         rinex,
@@ -238,7 +257,7 @@ def receive(
         sbas=sbas,
     )
     if nav_filter is None:
-        return ReceiveResult(tracking, obs, table, table)
+        return ReceiveResult(tracking, obs, table, table, sbas=sbas_channels, sbas_notes=sbas_notes)
     checks = {} if raim is None else {"innovation_false_alarm": raim.false_alarm, "integrity_risk": raim.integrity_risk}
     filtered = filter_epochs(
         obs,
@@ -255,6 +274,44 @@ def receive(
         **checks,
     )
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def _sbas_from_signal(
+    recording: Recording,
+    acquisition: Acquisition,
+    config: TrackingConfig,
+    sbas: SbasOptions,
+    obs: Observables,
+    week: int,
+    duration_s: float | None,
+    workers: int | str | None,
+) -> tuple[SbasOptions, list[SbasChannel], tuple[str, ...]]:
+    """Acquire and track the recording's SBAS L1 GEOs (``sbas.prn``'s only, when given) under
+    ``config``'s settings with SBAS L1's coherent time, read each channel's messages and add
+    them, dated by ``obs`` in GPS ``week``, to ``sbas``'s records; the channels read and one
+    line per GEO found whose messages could not be read."""
+    prns = None if sbas.prn is None else (sbas.prn,)
+    found = [r for r in acquire_recording(recording, acquisition, prns, signal=SBAS_L1) if r.detected]
+    settings = {k: v for k, v in config.model_dump().items() if k != "coherent_ms"}
+    geo_config = signal_tracking_config(SBAS_L1, **settings)
+    channels: list[SbasChannel] = []
+    notes: list[str] = []
+    records = []
+    if found:
+        tracked = track_in_groups(
+            recording, geo_config, acquisition, found, duration_s, workers=workers, signal=SBAS_L1
+        )
+        for _, record in sorted(tracked.channels.items()):
+            try:
+                channel = channel_sbas(record, SBAS_L1)
+            except ConfigError as exc:
+                notes.append(exc.detail)
+                continue
+            channels.append(channel)
+            records += signal_records(channel, obs.sample_time_s, obs.rx_time_s, week)
+    else:
+        notes.append("no SBAS L1 GEO found in the recording" + ("" if prns is None else f" (PRN {sbas.prn})"))
+    return replace(sbas, records=merged_records(sbas.records, records)), channels, tuple(notes)
 
 
 def _raim_args(raim: RaimOptions | None) -> dict[str, Any]:

@@ -38,6 +38,7 @@ __all__ = [
     "channel_sbas",
     "SBAS_COLUMNS",
     "sbas_rows",
+    "write_sbas_csv",
     "write_sbas_report",
 ]
 
@@ -135,20 +136,10 @@ def sbas_rows(channel: SbasChannel) -> list[dict]:
     ]
 
 
-def write_sbas_report(
-    out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec
-) -> tuple[Path, list[SbasChannel], list[str]]:
-    """Read every channel of ``tracking`` (a `TrackingResult` of ``sbas-l1``) and write
-    ``out_dir/sbas.csv`` (`SBAS_COLUMNS`, one row per message); the path, each channel
-    read, and one line per channel that could not be (too few symbols: `channel_sbas`)."""
+def write_sbas_csv(out_dir: str | Path, channels: list[SbasChannel]) -> Path:
+    """``out_dir/sbas.csv`` (`SBAS_COLUMNS`, one row per message) of ``channels``."""
     from ...io.files import atomic_open
 
-    channels, notes = [], []
-    for _, ch in sorted(tracking.channels.items()):
-        try:
-            channels.append(channel_sbas(ch, signal))
-        except ConfigError as exc:
-            notes.append(exc.detail)
     path = Path(out_dir) / "sbas.csv"
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
@@ -156,4 +147,19 @@ def write_sbas_report(
         for c in channels:
             for row in sbas_rows(c):
                 w.writerow([row[k] for k in SBAS_COLUMNS])
-    return path, channels, notes
+    return path
+
+
+def write_sbas_report(
+    out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec
+) -> tuple[Path, list[SbasChannel], list[str]]:
+    """Read every channel of ``tracking`` (a `TrackingResult` of ``sbas-l1``) and write
+    ``out_dir/sbas.csv`` (`write_sbas_csv`); the path, each channel read, and one line per
+    channel that could not be (too few symbols: `channel_sbas`)."""
+    channels, notes = [], []
+    for _, ch in sorted(tracking.channels.items()):
+        try:
+            channels.append(channel_sbas(ch, signal))
+        except ConfigError as exc:
+            notes.append(exc.detail)
+    return write_sbas_csv(out_dir, channels), channels, notes
