@@ -14,6 +14,7 @@ and jq, JavaScript and most databases reject them. A float that is not finite be
 
 from __future__ import annotations
 
+import csv
 import errno
 import json
 import math
@@ -22,11 +23,19 @@ import tempfile
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import IO, Any
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-__all__ = ["atomic_open", "atomic_write_text", "strict_json", "dumps_strict", "write_json", "loads_strict"]
+__all__ = [
+    "atomic_open",
+    "atomic_write_text",
+    "write_rows_csv",
+    "strict_json",
+    "dumps_strict",
+    "write_json",
+    "loads_strict",
+]
 
 
 @contextmanager
@@ -81,6 +90,18 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     with atomic_open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
+
+
+def write_rows_csv(path: str | Path, columns: tuple[str, ...], rows: Iterable[dict[str, Any]]) -> Path:
+    """Write ``rows`` (one dict each, keyed by ``columns``) as CSV under a header of
+    ``columns``, atomically (`atomic_open`); the path."""
+    path = Path(path)
+    with atomic_open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(columns)
+        for row in rows:
+            w.writerow([row[c] for c in columns])
+    return path
 
 
 def strict_json(obj: Any) -> Any:

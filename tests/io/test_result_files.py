@@ -16,7 +16,7 @@ import pytest
 
 from gnssframework.experiments import load_config, run_comparison
 from gnssframework.experiments.config_base import read_config_data
-from gnssframework.io.files import atomic_open, dumps_strict, loads_strict, write_json
+from gnssframework.io.files import atomic_open, dumps_strict, loads_strict, write_json, write_rows_csv
 from gnssframework.experiments.scenarios.carrier_smoothing import CarrierSmoothingScenario
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.toml"))
@@ -126,6 +126,18 @@ def test_atomic_open_leaves_the_old_file_on_an_exception(tmp_path):
             fh.write("half a ne")
             raise RuntimeError("killed")
     assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+
+
+def test_write_rows_csv_writes_its_columns_in_order_or_nothing(tmp_path):
+    import csv
+
+    path = write_rows_csv(
+        tmp_path / "m.csv", ("prn", "text"), [{"text": "a, b", "prn": 3, "x": 0}, {"prn": 4, "text": ""}]
+    )
+    assert list(csv.reader(path.open())) == [["prn", "text"], ["3", "a, b"], ["4", ""]]
+    with pytest.raises(KeyError):  # a row without a column: the old file stays
+        write_rows_csv(path, ("prn", "text"), [{"prn": 5, "text": "c"}, {"prn": 6}])
+    assert list(csv.reader(path.open()))[1:] == [["3", "a, b"], ["4", ""]]
 
 
 @pytest.mark.slow

@@ -22,7 +22,6 @@ known from the end of the message that completed it.
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -240,14 +239,8 @@ def write_cnav_report(
     """Decode every channel of ``tracking`` (a `TrackingResult` of L2C) and write
     ``out_dir/cnav.csv`` (`CNAV_COLUMNS`, one row per message); the path and each
     channel's `CnavTiming`."""
-    from ...io.files import atomic_open
+    from ...io.files import write_rows_csv
 
     timings = [channel_cnav(ch, signal) for _, ch in sorted(tracking.channels.items())]
-    path = Path(out_dir) / "cnav.csv"
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(CNAV_COLUMNS)
-        for timing in timings:
-            for r in cnav_rows(timing):
-                w.writerow([r[c] for c in CNAV_COLUMNS])
-    return path, timings
+    rows = (r for timing in timings for r in cnav_rows(timing))
+    return write_rows_csv(Path(out_dir) / "cnav.csv", CNAV_COLUMNS, rows), timings

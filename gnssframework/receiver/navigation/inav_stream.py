@@ -36,7 +36,6 @@ the rows are dated every 2 ms from a subframe's start (its frame's SOW + 0.6 s a
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -394,7 +393,7 @@ def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: Sig
     """Decode every channel of ``tracking`` (a `TrackingResult` of E1-B, or of E5a-I) and
     write ``out_dir/inav.csv`` (``fnav.csv`` for E5a-I; `INAV_COLUMNS`, one row per channel,
     ``word_types`` the page types of F/NAV); the path and the rows."""
-    from ...io.files import atomic_open
+    from ...io.files import write_rows_csv
 
     rows = []
     for _, ch in sorted(tracking.channels.items()):
@@ -402,10 +401,4 @@ def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: Sig
         n = int(np.count_nonzero(ch.column("coherent_ms") == per_row)) if ch.rows else 0
         rows.append(inav_summary(channel_inav(ch, signal), n))
     name = "fnav" if carries_fnav(signal) else "d1" if carries_d1(signal) else "d2" if carries_d2(signal) else "inav"
-    path = Path(out_dir) / f"{name}.csv"
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(INAV_COLUMNS)
-        for r in rows:
-            w.writerow([r[c] for c in INAV_COLUMNS])
-    return path, rows
+    return write_rows_csv(Path(out_dir) / f"{name}.csv", INAV_COLUMNS, rows), rows

@@ -16,7 +16,6 @@ column says in one line what each message holds (`sbas_content.describe`).
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -138,16 +137,9 @@ def sbas_rows(channel: SbasChannel) -> list[dict]:
 
 def write_sbas_csv(out_dir: str | Path, channels: list[SbasChannel]) -> Path:
     """``out_dir/sbas.csv`` (`SBAS_COLUMNS`, one row per message) of ``channels``."""
-    from ...io.files import atomic_open
+    from ...io.files import write_rows_csv
 
-    path = Path(out_dir) / "sbas.csv"
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(SBAS_COLUMNS)
-        for c in channels:
-            for row in sbas_rows(c):
-                w.writerow([row[k] for k in SBAS_COLUMNS])
-    return path
+    return write_rows_csv(Path(out_dir) / "sbas.csv", SBAS_COLUMNS, (row for c in channels for row in sbas_rows(c)))
 
 
 def write_sbas_report(
