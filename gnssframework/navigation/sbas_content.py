@@ -32,6 +32,10 @@ type      fields (first bit, bits, scale)
 25        two halves of long-term corrections, from 14 and 120 (106 bits each; below)
 26        ionospheric delays: band (14, 4), block (18, 4), 15 IGPs of delay (22 + 13 k, 9, 0.125
           m; 511: not monitored) and GIVEI (31 + 13 k, 4), IODI (217, 2)
+28        clock-ephemeris covariance (A.4.4.16): IODP (14, 2), two satellites from 16 + 105 k:
+          mask number (6; 0: none), scale exponent (3), E_11 E_22 E_33 E_44 (9 each), E_12 E_13
+          E_14 E_23 E_24 E_34 (10 each, signed): the Cholesky factor R = 2^(exponent - 5) E
+          (upper triangular) of the relative covariance C = RᵀR of (x, y, z, clock)
 ========= ====================================================================================
 
 A half of long-term corrections opens with its velocity code. Code 0: two satellites, each
@@ -49,7 +53,7 @@ north and south. Each is generated here by that rule and numbered as the mask nu
 `SbasCorrections.from_messages` gathers a stream's messages into what a user would apply at
 its end: each masked satellite's latest fast correction and UDREI, its long-term correction
 and each monitored IGP's delay, where the message's IODP or IODI matches the mask's.
-Types 12, 27, 28 and the rest are not interpreted here (`decode_content` returns None).
+Types 12, 27 and the rest are not interpreted here (`decode_content` returns None).
 The field positions follow DO-229 as RTKLIB's ``sbas.c`` reads them (learned from, not
 copied); the checks are in `tests/navigation/test_sbas_content.py`.
 """
@@ -75,6 +79,7 @@ __all__ = [
     "IgpMask",
     "LongTermCorrection",
     "IonoDelays",
+    "CovarianceMatrices",
     "SbasContent",
     "decode_content",
     "describe",
@@ -388,6 +393,38 @@ def _geo_almanac(bits: np.ndarray) -> GeoAlmanac:
     return GeoAlmanac(_field(bits, 215, 11, 64.0), tuple(entries))
 
 
+@dataclass(frozen=True)
+class CovarianceMatrices:
+    """Type 28: per satellite named (``slots``, 1-based mask numbers) its scale exponent and
+    the relative clock-ephemeris covariance ``C = RᵀR`` (4 × 4, x y z clock; R = 2^(exponent
+    - 5) E) of the corrections of mask ``iodp``."""
+
+    iodp: int
+    slots: tuple[int, ...]
+    scale_exponents: tuple[int, ...]
+    covariances: np.ndarray = field(repr=False)
+
+
+def _covariance_matrices(bits: np.ndarray) -> CovarianceMatrices:
+    slots, exponents, matrices = [], [], []
+    for k in range(2):
+        p = 16 + 105 * k
+        slot = int(_field(bits, p, 6))
+        if slot == 0:
+            continue
+        exponent = int(_field(bits, p + 6, 3))
+        e = np.zeros((4, 4))
+        e[np.diag_indices(4)] = _fields(bits, p + 9, 9, 4)
+        e[np.triu_indices(4, 1)] = _fields(bits, p + 45, 10, 6, signed=True)  # E12 E13 E14 E23 E24 E34
+        r = 2.0 ** (exponent - 5) * e
+        slots.append(slot)
+        exponents.append(exponent)
+        matrices.append(r.T @ r)
+    return CovarianceMatrices(
+        int(_field(bits, 14, 2)), tuple(slots), tuple(exponents), np.array(matrices).reshape(-1, 4, 4)
+    )
+
+
 #: What `decode_content` returns (see there).
 SbasContent = (
     PrnMask
@@ -399,6 +436,7 @@ SbasContent = (
     | GeoAlmanac
     | IgpMask
     | IonoDelays
+    | CovarianceMatrices
     | list[LongTermCorrection]
     | tuple[FastCorrections, list[LongTermCorrection]]
     | None
@@ -464,6 +502,8 @@ def decode_content(bits: np.ndarray) -> SbasContent:
             np.where(delay == 511, np.nan, delay * 0.125),
             (raw % 16).astype(int),
         )
+    if mtype == 28:
+        return _covariance_matrices(b)
     return None
 
 
@@ -493,6 +533,8 @@ def describe(content: SbasContent) -> str:
         return f"IGP mask band {content.band} IODI {content.iodi}: {len(content.igps)} IGPs"
     if isinstance(content, IonoDelays):
         return f"ionospheric delays band {content.band} block {content.block} IODI {content.iodi}"
+    if isinstance(content, CovarianceMatrices):
+        return f"clock-ephemeris covariance IODP {content.iodp}: mask numbers {' '.join(map(str, content.slots))}"
     if isinstance(content, tuple):
         return f"mixed corrections IODP {content[0].iodp}: {len(content[1])} long-term"
     if isinstance(content, list):
@@ -507,7 +549,8 @@ class SbasCorrections:
     ``fast_previous`` the correction it replaced, for the range-rate correction; in
     ``fast_iodf`` the IODF of both), its long-term correction (and in ``long_term_time`` its
     message's time), each band's monitored IGPs with their latest delays (m) and GIVEI, and
-    the latest type 7 and type 10 with their times (``degradation``, ``parameters``).
+    the latest type 7 and type 10 with their times (``degradation``, ``parameters``), and
+    per satellite its latest type 28 (``covariance``: time, scale exponent, C).
     ``ignored`` counts messages whose IODP or IODI did not match the mask they need (or that
     came before it)."""
 
@@ -522,6 +565,7 @@ class SbasCorrections:
     igp_masks: dict[int, IgpMask] = field(default_factory=dict)
     iono: dict[tuple[int, float, float], tuple[float, int, float]] = field(default_factory=dict)
     geo: dict[int, tuple[float, GeoNavigation]] = field(default_factory=dict)
+    covariance: dict[str, tuple[float, int, np.ndarray]] = field(default_factory=dict)
     ignored: int = 0
 
     @classmethod
@@ -587,5 +631,12 @@ class SbasCorrections:
                 if j < len(grid):
                     key = (content.band, float(grid[j, 0]), float(grid[j, 1]))
                     self.iono[key] = (float(content.delay_m[k]), int(content.givei[k]), t)
+        elif isinstance(content, CovarianceMatrices):
+            if self.mask is None or content.iodp != self.mask.iodp:
+                self.ignored += 1
+                return
+            for slot, exponent, c in zip(content.slots, content.scale_exponents, content.covariances):
+                if slot <= len(self.mask.slots):
+                    self.covariance[self.mask.satellites[slot - 1]] = (t, exponent, c)
         elif isinstance(content, GeoNavigation):
             self.geo[prn] = (t, content)

@@ -1,6 +1,7 @@
 r"""SBAS L1 messages written from their contents: the inverse of `sbas_content` for the types
 a simulated SBAS stream needs (RTCA DO-229 A.4.4): the PRN mask (1), fast corrections (2-5),
-long-term corrections (25, velocity code 0), the IGP mask (18) and ionospheric delays (26).
+long-term corrections (25, velocity code 0), the IGP mask (18), ionospheric delays (26) and
+the clock-ephemeris covariance (28).
 
 Every field sits where `sbas_content`'s table puts it and is quantised to the nearest
 integer of its LSB (`bit_fields.encode_fields`); a value out of its field is refused in one
@@ -29,6 +30,7 @@ __all__ = [
     "iono_message",
     "fast_degradation_message",
     "degradation_parameters_message",
+    "covariance_message",
 ]
 
 _SOURCE = "RTCA DO-229 A.4.4"
@@ -174,3 +176,31 @@ def degradation_parameters_message(params: DegradationParameters, preamble_index
     """Type 10 from its parameters (`sbas_content.DEGRADATION_LAYOUT`)."""
     values = {name: float(getattr(params, name)) for name in DEGRADATION_LAYOUT}
     return message_bits(preamble_index, 10, _data(DEGRADATION_LAYOUT, values, "type10"))
+
+
+def covariance_message(
+    iodp: int, satellites: Sequence[tuple[int, int, np.ndarray]], preamble_index: int = 0
+) -> np.ndarray:
+    """Type 28: IODP and up to two satellites, each ``(mask number, scale exponent, E)`` with
+    ``E`` the 4 × 4 upper-triangular integers of the Cholesky factor (diagonal 0-511,
+    above it -512 to 511; `sbas_content.CovarianceMatrices`); a missing second satellite
+    is mask number 0."""
+    if len(satellites) > 2:
+        raise ConfigError("type28.satellites", f"a type 28 carries two satellites, got {len(satellites)}")
+    layout: Layout = {"iodp": (15, 2, 1.0, False)}
+    values: dict[str, float] = {"iodp": iodp}
+    for k, (slot, exponent, e) in enumerate(satellites):
+        m = np.asarray(e, float)
+        if m.shape != (4, 4) or np.any(np.tril(m, -1) != 0):
+            raise ConfigError(f"type28.E{k}", "E is a 4 x 4 upper-triangular matrix")
+        first = 17 + 105 * k
+        layout[f"slot{k}"] = (first, 6, 1.0, False)
+        layout[f"exponent{k}"] = (first + 6, 3, 1.0, False)
+        values[f"slot{k}"], values[f"exponent{k}"] = slot, exponent
+        for j, (r, c) in enumerate(zip(*np.diag_indices(4))):
+            layout[f"e{r + 1}{c + 1}_{k}"] = (first + 9 + 9 * j, 9, 1.0, False)
+            values[f"e{r + 1}{c + 1}_{k}"] = m[r, c]
+        for j, (r, c) in enumerate(zip(*np.triu_indices(4, 1))):
+            layout[f"e{r + 1}{c + 1}_{k}"] = (first + 45 + 10 * j, 10, 1.0, True)
+            values[f"e{r + 1}{c + 1}_{k}"] = m[r, c]
+    return message_bits(preamble_index, 28, _data(layout, values, "type28"))

@@ -21,7 +21,7 @@ with no broadcast-model fallback.
 
 The weights are :math:`w_i = 1/\sigma_i^2`,
 :math:`\sigma_i^2 = \sigma^2_{flt,i} + \sigma^2_{UIRE,i} + \sigma^2_{air,i} + \sigma^2_{tropo,i}`
-(J.1): :math:`\sigma^2_{flt} = (\sigma_{UDRE} + \epsilon_{fc} + \epsilon_{rrc} + \epsilon_{ltc})^2`
+(J.1): :math:`\sigma^2_{flt} = (\sigma_{UDRE}\,\delta UDRE + \epsilon_{fc} + \epsilon_{rrc} + \epsilon_{ltc})^2`
 (or their root sum square with type 10's RSS_UDRE = 1; A.4.5.1): with type 7,
 :math:`\epsilon_{fc} = a (t - t_u + t_{lat})^2 / 2` (``a`` of the satellite's a_i, `t_lat` its
 latency), a fast correction older than the a_i's precision-approach time-out ``I_fc`` not
@@ -32,8 +32,13 @@ and :math:`\Delta t \ne I_{fc}/2`), :math:`\epsilon_{ltc} = C_{ltc,lsb} + C_{ltc
 \max(0, t_0 - t, t - t_0 - I_{ltc,v1})` (velocity code 1) or :math:`C_{ltc,v0} \lfloor (t -
 t_{ltc}) / I_{ltc,v0} \rfloor` (code 0, :math:`t_{ltc}` the message's time), and each IGP's
 :math:`\sigma_{GIVE}` grows by :math:`\epsilon_{iono} = C_{iono,step}\lfloor\Delta t /
-I_{iono}\rfloor + C_{iono,ramp}\Delta t` (RSS_iono likewise). δUDRE (types 27, 28) is 1 and
-:math:`\epsilon_{er}` (en-route fallback) 0. :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
+I_{iono}\rfloor + C_{iono,ramp}\Delta t` (RSS_iono likewise). With a type 28 of the
+satellite (younger than its 240 s precision-approach time-out, Table A-25),
+:math:`\delta UDRE = \sqrt{I^T C I} + \epsilon_c` (A.4.5.1.2): :math:`I = [u, 1]`, :math:`u`
+the unit vector from the user to the satellite (ECEF), :math:`C` the message's relative
+covariance and :math:`\epsilon_c = C_{covariance}\,2^{e - 5}` (type 10's C_covariance, 0
+without one; :math:`e` the scale exponent); else δUDRE is 1. Type 27's regions are not read
+and :math:`\epsilon_{er}` (en-route fallback) is 0. :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
 :math:`\sigma^2_{air} = \sigma^2_{noise} + \sigma^2_{multipath}` with
 :math:`\sigma_{multipath} = 0.13 + 0.53\,e^{-E/10°}` m (J.2.4) and a constant
 :math:`\sigma_{noise}` (``sigma_noise_m``; 0.36 m, an airborne accuracy designator A
@@ -76,6 +81,8 @@ __all__ = [
     "K_V",
     "K_H",
     "protection_levels",
+    "COVARIANCE_TIMEOUT_PA_S",
+    "delta_udre",
     "sbas_satellite_corrections",
     "solve_position_sbas",
 ]
@@ -155,10 +162,33 @@ def _slot_of(corrections: SbasCorrections, sv: str) -> int | None:
     return corrections.mask.satellites.index(sv)
 
 
-def _flt_variance(corrections: SbasCorrections, udrei: int, eps_fc: float, eps_rrc: float, eps_ltc: float) -> float:
-    """σ²_flt of A.4.5.1: the UDRE's σ and the degradation terms, added (RSS_UDRE 0) or
-    root-sum-squared (1)."""
-    sigma = float(np.sqrt(UDRE_VARIANCE_M2[udrei]))
+#: Type 28's time-out in precision approach (s; DO-229 Table A-25).
+COVARIANCE_TIMEOUT_PA_S = 240.0
+
+
+def delta_udre(corrections: SbasCorrections, sv: np.ndarray, los_unit: np.ndarray, tow_s: float) -> np.ndarray:
+    """δUDRE of each satellite ``sv`` (names) seen along ``los_unit`` (``(S, 3)`` unit vectors
+    from the user to the satellites, ECEF) at ``tow_s`` (A.4.5.1.2, module text): from its
+    type 28 within `COVARIANCE_TIMEOUT_PA_S`, else 1."""
+    u = np.asarray(los_unit, float).reshape(-1, 3)
+    out = np.ones(u.shape[0])
+    c_cov = corrections.parameters[1].ccovariance if corrections.parameters is not None else 0.0
+    for i, name in enumerate(np.asarray(sv).astype(str)):
+        got = corrections.covariance.get(name)
+        if got is None or abs(tow_s - got[0]) > COVARIANCE_TIMEOUT_PA_S:
+            continue
+        _, exponent, c = got
+        i4 = np.r_[u[i], 1.0]
+        out[i] = float(np.sqrt(max(i4 @ c @ i4, 0.0))) + c_cov * 2.0 ** (exponent - 5)
+    return out
+
+
+def _flt_variance(
+    corrections: SbasCorrections, udrei: int, eps_fc: float, eps_rrc: float, eps_ltc: float, dudre: float = 1.0
+) -> float:
+    """σ²_flt of A.4.5.1: the UDRE's σ (times δUDRE) and the degradation terms, added
+    (RSS_UDRE 0) or root-sum-squared (1)."""
+    sigma = float(np.sqrt(UDRE_VARIANCE_M2[udrei])) * dudre
     rss = corrections.parameters is not None and corrections.parameters[1].rss_udre == 1
     if rss:
         return sigma**2 + eps_fc**2 + eps_rrc**2 + eps_ltc**2
@@ -172,12 +202,14 @@ def sbas_satellite_corrections(
     *,
     max_fast_age_s: float = 120.0,
     range_rate: bool = True,
+    dudre: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
     """Each record's long-term position (m, ECEF) and clock (s) corrections, its fast
     correction (m, with the range-rate term), σ²_flt (m², with the degradation terms of the
     module text) and why it has none (``""`` where it has both), at GPS times ``tow_s``
     (``(S,)`` seconds of week). With a type 7 its fast correction's time-out is DO-229's
-    precision-approach one of the satellite's a_i (`FAST_TIMEOUT_PA_S`), else ``max_fast_age_s``."""
+    precision-approach one of the satellite's a_i (`FAST_TIMEOUT_PA_S`), else ``max_fast_age_s``.
+    ``dudre``: each record's δUDRE (`delta_udre`; 1 when not given)."""
     tow = np.broadcast_to(np.asarray(tow_s, float), ephemeris.sv.shape)
     n = tow.size
     dpos, dclock, fast, var = np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.full(n, np.nan)
@@ -230,7 +262,9 @@ def sbas_satellite_corrections(
                 elif mt10.iltc_v0_s > 0:
                     since = float(tow[i] - corrections.long_term_time.get(sv, float(tow[i])))
                     eps_ltc = mt10.cltc_v0_m * np.floor(max(since, 0.0) / mt10.iltc_v0_s)
-            var[i] = _flt_variance(corrections, got[1], eps_fc, eps_rrc, eps_ltc)
+            var[i] = _flt_variance(
+                corrections, got[1], eps_fc, eps_rrc, eps_ltc, 1.0 if dudre is None else float(dudre[i])
+            )
     return dpos, dclock, fast, var, tuple(reasons)
 
 
@@ -326,6 +360,13 @@ def solve_position_sbas(
     fix, iono, tropo, sigma, reasons_now = first, np.zeros(pr.size), np.zeros(pr.size), sigma0, list(reasons)
     for _ in range(2):  # the pierce points and elevations of the fix, then once more
         lat, lon, h = fix.lat_deg, fix.lon_deg, fix.height_m
+        if corrections.covariance:  # δUDRE along the lines of sight from the fix
+            los = sv_pos - fix.position_ecef_m
+            los_unit = los / np.linalg.norm(los, axis=1, keepdims=True)
+            dudre = delta_udre(corrections, np.asarray(ephemeris.sv), los_unit, float(np.nanmedian(t - clock)))
+            var_flt = sbas_satellite_corrections(
+                corrections, ephemeris, t - clock, max_fast_age_s=max_fast_age_s, range_rate=range_rate, dudre=dudre
+            )[3]
         el, az = fix.elevation_deg, fix.azimuth_deg
         lat_pp, lon_pp, slant = sbas_pierce_point(lat, lon, az, el)
         vertical, var_uive = grid_vertical_delay(lat_pp, lon_pp, _iono_grid(corrections, float(np.nanmedian(tx))))

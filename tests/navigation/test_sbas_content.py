@@ -208,8 +208,32 @@ def test_each_type_read_is_described_in_one_line(log):
     assert seen[17] == "GEO almanac t0 1600 s: PRN 129 137"
     assert seen[25].startswith("long-term corrections: mask numbers")
     assert seen[10].startswith("degradation parameters: B_rrc 0.108 m")
-    assert seen[28] == seen[63] == ""  # not interpreted / null
+    assert seen[28] == "clock-ephemeris covariance IODP 3: mask numbers 18 31"
+    assert seen[63] == ""  # the null message
     assert all(text for mtype, text in seen.items() if mtype in (2, 3, 4, 7, 18, 26))
+
+
+def test_msas_type_28_covariances_never_shrink_a_udre(log):
+    """MSAS's 10 type 28 messages (five pairs, one from each GEO; 20 satellites' matrices,
+    scale exponents 0, 1, 2 and 5) under the mask's IODP: every relative covariance C = RᵀR
+    read has its smallest eigenvalue at 0.5 (within 0.01: the quantised factor), so along
+    any line of sight IᵀCI >= 0.5 |I|² = 1 (I = [u, 1]) and δUDRE >= 1, as an inflation
+    factor must be. The check fails if the off-diagonal signs, the field order or the scale
+    are misread (measured: 0.28-0.72 and 2.0 instead)."""
+    from gnssframework.navigation.sbas_content import CovarianceMatrices
+
+    got = _of_type(log, 28)
+    assert len(got) == 10 and all(isinstance(c, CovarianceMatrices) and c.iodp == 3 for _, _, c in got)
+    assert {e for _, _, c in got for e in c.scale_exponents} == {0, 1, 2, 5}
+    smallest = np.array([np.linalg.eigvalsh(m)[0] for _, _, c in got for m in c.covariances])
+    assert smallest.size == 20 and np.all(np.abs(smallest - 0.5) < 0.01)
+    # The two GEOs send the same satellites' matrices, equal to within a few LSBs.
+    by_geo = {p: [c for _, q, c in got if q == p] for p in (129, 137)}
+    for c129, c137 in zip(by_geo[129], by_geo[137]):
+        assert c129.slots == c137.slots
+        np.testing.assert_allclose(
+            np.sqrt(np.diag(c129.covariances[0])), np.sqrt(np.diag(c137.covariances[0])), atol=0.2
+        )
 
 
 def test_both_geos_send_the_same_degradation_parameters(log):

@@ -36,7 +36,7 @@ from gnssframework.navigation.sbas_iono import (
     mops_troposphere,
     sbas_pierce_point,
 )
-from gnssframework.navigation.sbas_pvt import K_H, K_V, protection_levels, solve_position_sbas
+from gnssframework.navigation.sbas_pvt import K_H, K_V, UDRE_VARIANCE_M2, protection_levels, solve_position_sbas
 
 DATA = Path(__file__).parents[1] / "data"
 C = 299_792_458.0
@@ -392,3 +392,90 @@ def test_an_igps_variance_grows_with_its_age_by_type_10():
     assert _iono_grid(corr, 650.0)[(35.0, 140.0)][1] == pytest.approx((np.sqrt(0.2994) + eps) ** 2)
     corr.parameters = (0.0, _params(ciono_step_m=0.228, iiono_s=300.0, ciono_ramp_mps=0.0001, rss_iono=1))
     assert _iono_grid(corr, 650.0)[(35.0, 140.0)][1] == pytest.approx(0.2994 + eps**2)
+
+
+# --- Type 28's δUDRE (A.4.5.1.2), against closed forms -------------------------------------
+
+
+def _covariance_stream(e, exponent=5, c_covariance=None):
+    """G05's corrections (`_one_satellite`) with a type 28 of factor ``e`` (and a type 10 of
+    that C_covariance) sent at 90 s, gathered from their bits."""
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import decode_content
+
+    eph, corr = _one_satellite()
+    corr.add(90.0, 137, decode_content(enc.covariance_message(0, [(1, exponent, e)])))
+    if c_covariance is not None:
+        corr.add(90.0, 137, decode_content(enc.degradation_parameters_message(_params(ccovariance=c_covariance))))
+    return eph, corr
+
+
+def test_a_type_28_reads_back_its_factor_and_gives_c_as_r_transposed_r():
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import CovarianceMatrices, decode_content, describe
+
+    e = np.triu(np.arange(1, 17).reshape(4, 4)) * np.array([1, -1, 1, -1])  # signs above the diagonal
+    e[np.diag_indices(4)] = [511, 3, 0, 17]
+    got = decode_content(enc.covariance_message(2, [(7, 3, e), (12, 6, np.diag([1, 2, 3, 4]))]))
+    assert isinstance(got, CovarianceMatrices) and got.iodp == 2 and got.slots == (7, 12)
+    assert got.scale_exponents == (3, 6)
+    # C = R^T R, R = 2^(exponent - 5) E: element by element, C_ij = sum_k R_ki R_kj
+    r = 0.25 * e
+    for i in range(4):
+        for j in range(4):
+            assert got.covariances[0][i, j] == pytest.approx(sum(r[k, i] * r[k, j] for k in range(4)), abs=1e-12)
+    np.testing.assert_allclose(got.covariances[1], np.diag([4.0, 16.0, 36.0, 64.0]))
+    assert describe(got) == "clock-ephemeris covariance IODP 2: mask numbers 7 12"
+    one = decode_content(enc.covariance_message(0, [(3, 5, np.eye(4))]))
+    assert one.slots == (3,) and one.covariances.shape == (1, 4, 4)
+    with pytest.raises(ConfigError, match="type28.E0"):
+        enc.covariance_message(0, [(3, 5, np.ones((4, 4)))])
+    with pytest.raises(ConfigError, match=r"type28\.e11_0"):
+        enc.covariance_message(0, [(3, 5, np.diag([512, 1, 1, 1]))])
+
+
+@given(
+    az=st.floats(0.0, 2 * np.pi),
+    el=st.floats(-np.pi / 2, np.pi / 2),
+    a=st.integers(0, 511),
+    b=st.integers(0, 511),
+    d=st.integers(-512, 511),
+    exponent=st.integers(0, 7),
+)
+def test_delta_udre_is_the_quadratic_form_along_the_line_of_sight(az, el, a, b, d, exponent):
+    from gnssframework.navigation.sbas_pvt import delta_udre
+
+    e = np.diag([a, a, a, b]).astype(float)
+    e[0, 3] = d  # a clock-x correlation: the form depends on the direction
+    eph, corr = _covariance_stream(e, exponent, c_covariance=1.5)
+    u = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    sf = 2.0 ** (exponent - 5)
+    # |R I|^2 with R I = sf (a u_x + d, a u_y, a u_z, b)
+    expected = sf * np.sqrt(a**2 + 2 * a * d * u[0] + d**2 + b**2) + 1.5 * sf
+    assert delta_udre(corr, np.array(["G05"]), u[None, :], 100.0)[0] == pytest.approx(expected, rel=1e-9, abs=1e-9)
+    # Past its 240 s time-out, and for a satellite without one, δUDRE is 1.
+    assert delta_udre(corr, np.array(["G05", "G07"]), np.array([u, u]), 90.0 + 241.0).tolist() == [1.0, 1.0]
+
+
+def test_delta_udre_scales_sigma_udre_in_the_fix_weights(epoch):
+    """Every satellite of the epoch given δUDRE k (an isotropic factor): each weight's σ² grows
+    by exactly σ²_UDRE (k² - 1), nothing else changes."""
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import decode_content
+
+    corr = epoch["corr"]
+    k = 2.5  # E_44 = 5 at scale exponent 4: R = diag(0, 0, 0, 2.5)
+    sats = list(range(1, epoch["eph"].sv.size + 1))
+    bits = [
+        enc.covariance_message(corr.mask.iodp, [(m, 4, np.diag([0.0, 0.0, 0.0, 5.0])) for m in sats[i : i + 2]])
+        for i in range(0, len(sats), 2)
+    ]
+    inflated = SbasCorrections(**{f: getattr(corr, f) for f in ("mask", "fast", "fast_previous", "long_term", "iono")})
+    for b in bits:
+        inflated.add(TOW - 10.0, 137, decode_content(b))
+    assert len(inflated.covariance) == len(sats)
+    plain = solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], corr, day_of_year=DAY_OF_YEAR)
+    wide = solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], inflated, day_of_year=DAY_OF_YEAR)
+    sigma_udre2 = UDRE_VARIANCE_M2[2]  # the epoch's UDREI
+    np.testing.assert_allclose(wide.sigma_m**2 - plain.sigma_m**2, sigma_udre2 * (k**2 - 1), rtol=1e-6)
+    assert wide.vpl_m > plain.vpl_m and wide.hpl_m > plain.hpl_m
