@@ -25,6 +25,18 @@ def vertical_delay_m(lat_deg, lon_deg):
     return 3.0 + 0.025 * (np.asarray(lat_deg) - 35.0) - 0.025 * (np.asarray(lon_deg) - 140.0)
 
 
+def receive_sbas(path, rinex, sbas):
+    """`receive` of the LNAV recording at ``path`` (5 Hz fixes, default tracking, ``rinex``'s
+    records) with the SBAS options ``sbas`` (`sbas_fixes.SbasOptions`)."""
+    from gnssframework import registry
+    from gnssframework.receiver.channels import tracking_config
+    from gnssframework.receiver.frontend import open_recording
+    from gnssframework.receiver.navigation.receive import receive
+
+    acquisition = registry.create("acquisition", "pcps")
+    return receive(open_recording(path), acquisition, tracking_config(), rate_hz=5.0, rinex=rinex, sbas=sbas)
+
+
 def range_delays(sats, station_ecef_m, tow_s: float, day_of_year: float, clock_errors_m: np.ndarray):
     """Each satellite's code delay (m) seen from ``station_ecef_m`` at ``tow_s`` (its geometry
     held): its clock error, the slant delay of the plane `vertical_delay_m` at its pierce

@@ -15,17 +15,13 @@ import numpy as np
 import pymap3d
 import pytest
 
-from gnssframework import registry
 from gnssframework.cli import main
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.sbas_files import write_rtklib_sbs
-from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.fixes import solve_epochs, write_positions_csv
-from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.sbas_fixes import SbasOptions, day_of_year
 from lnav_recordings import NAV, STATION, TOW0, WEEK, _strongest, write_lnav_recording
-from sbas_streams import range_delays, sbas_stream
+from sbas_streams import range_delays, receive_sbas, sbas_stream
 
 DURATION_S = 10.5
 CLOCK_ERRORS_M = np.array([18.0, -24.0, 12.0, -15.0, 30.0])
@@ -47,14 +43,7 @@ def run(tmp_path_factory):
     records = sbas_stream(sats, np.zeros((n, 3)), np.zeros(n), prc_m, WEEK, TOW0 - 120.0, TOW0 + DURATION_S, 137)
     sbs = write_rtklib_sbs(folder / "stream.sbs", records)
     rinex = read_rinex_nav(NAV)
-    result = receive(
-        open_recording(path),
-        registry.create("acquisition", "pcps"),
-        tracking_config(),
-        rate_hz=5.0,
-        rinex=rinex,
-        sbas=SbasOptions(tuple(records), sigma_noise_m=SIGMA_M),
-    )
+    result = receive_sbas(path, rinex, SbasOptions(tuple(records), sigma_noise_m=SIGMA_M))
     plain = solve_epochs(result.observables, rinex)
     return result, plain, sbs, folder
 

@@ -15,18 +15,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gnssframework import registry
 from gnssframework.cli import main
 from gnssframework.navigation import sbas_message as sm
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.sbas_files import SbasRecord
-from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.fixes import solve_epochs
-from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.sbas_fixes import SbasOptions, day_of_year, merged_records, signal_records
 from lnav_recordings import NAV, STATION, TOW0, WEEK, Geo, _strongest, write_lnav_recording
-from sbas_streams import compact_stream, range_delays
+from sbas_streams import compact_stream, range_delays, receive_sbas
 
 DURATION_S = 12.0
 GEO_PRN = 137
@@ -65,14 +61,7 @@ def run(tmp_path_factory):
         geo=Geo(GEO_PRN, symbols.astype(float), T0, GEO_DELAY_S, 45.0),
     )
     rinex = read_rinex_nav(NAV)
-    result = receive(
-        open_recording(path),
-        registry.create("acquisition", "pcps"),
-        tracking_config(),
-        rate_hz=5.0,
-        rinex=rinex,
-        sbas=SbasOptions((), sigma_noise_m=SIGMA_M, from_signal=True),
-    )
+    result = receive_sbas(path, rinex, SbasOptions((), sigma_noise_m=SIGMA_M, from_signal=True))
     return result, sent, rinex, path, folder
 
 
