@@ -32,6 +32,11 @@ type      fields (first bit, bits, scale)
 25        two halves of long-term corrections, from 14 and 120 (106 bits each; below)
 26        ionospheric delays: band (14, 4), block (18, 4), 15 IGPs of delay (22 + 13 k, 9, 0.125
           m; 511: not monitored) and GIVEI (31 + 13 k, 4), IODI (217, 2)
+27        service message (A.4.4.13): IODS (14, 3), number of service messages less one (17,
+          3), service message number (20, 3), number of regions (23, 3), priority code (26,
+          2), δUDREI inside (28, 4) and outside (32, 4), then up to five regions from 36 + 35 k:
+          corner 1 latitude (8, 1°, signed), longitude (9, 1°, signed), corner 2 latitude,
+          longitude, shape (1: quadrangle, 0: triangle)
 28        clock-ephemeris covariance (A.4.4.16): IODP (14, 2), two satellites from 16 + 105 k:
           mask number (6; 0: none), scale exponent (3), E_11 E_22 E_33 E_44 (9 each), E_12 E_13
           E_14 E_23 E_24 E_34 (10 each, signed): the Cholesky factor R = 2^(exponent - 5) E
@@ -53,7 +58,7 @@ north and south. Each is generated here by that rule and numbered as the mask nu
 `SbasCorrections.from_messages` gathers a stream's messages into what a user would apply at
 its end: each masked satellite's latest fast correction and UDREI, its long-term correction
 and each monitored IGP's delay, where the message's IODP or IODI matches the mask's.
-Types 12, 27 and the rest are not interpreted here (`decode_content` returns None).
+Types 12 and the rest are not interpreted here (`decode_content` returns None).
 The field positions follow DO-229 as RTKLIB's ``sbas.c`` reads them (learned from, not
 copied); the checks are in `tests/navigation/test_sbas_content.py`.
 """
@@ -80,6 +85,8 @@ __all__ = [
     "LongTermCorrection",
     "IonoDelays",
     "CovarianceMatrices",
+    "ServiceMessage",
+    "DELTA_UDRE",
     "SbasContent",
     "decode_content",
     "describe",
@@ -405,6 +412,67 @@ class CovarianceMatrices:
     covariances: np.ndarray = field(repr=False)
 
 
+#: δUDRE of each indicator 0-15 (DO-229 Table A-16).
+DELTA_UDRE = np.array([1.0, 1.1, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 20.0, 30.0, 40.0, 50.0, 100.0])
+
+
+@dataclass(frozen=True)
+class ServiceMessage:
+    """Type 27: one of the ``count`` service messages of set ``iods`` (this one ``number``,
+    0-based), its ``priority``, its δUDRE indicators inside and outside its regions, and the
+    regions: ``(lat1, lon1, lat2, lon2, quadrangle)`` in degrees (a quadrangle has corners
+    (1, 1), (2, 1), (2, 2), (1, 2) of the two latitudes and longitudes; a triangle (1, 1),
+    (2, 1), (2, 2))."""
+
+    iods: int
+    count: int
+    number: int
+    priority: int
+    inside: int
+    outside: int
+    regions: tuple[tuple[int, int, int, int, bool], ...]
+
+    def contains(self, lat_deg: float, lon_deg: float) -> list[bool]:
+        """Whether each region holds the point (its border included)."""
+        out = []
+        for lat1, lon1, lat2, lon2, quadrangle in self.regions:
+            in_box = min(lat1, lat2) <= lat_deg <= max(lat1, lat2) and min(lon1, lon2) <= lon_deg <= max(lon1, lon2)
+            if quadrangle or not in_box or lat1 == lat2 or lon1 == lon2:
+                out.append(in_box and (quadrangle or lat1 != lat2 and lon1 != lon2))
+                continue
+            # The triangle (1,1), (2,1), (2,2): the box's half on corner (2,1)'s side of the
+            # diagonal from (1,1) to (2,2).
+            a = (lat_deg - lat1) / (lat2 - lat1)
+            b = (lon_deg - lon1) / (lon2 - lon1)
+            out.append(b <= a)
+        return out
+
+
+def _service_message(bits: np.ndarray) -> ServiceMessage:
+    n = int(_field(bits, 23, 3))
+    regions = []
+    for k in range(min(n, 5)):
+        p = 36 + 35 * k
+        regions.append(
+            (
+                int(_field(bits, p, 8, signed=True)),
+                int(_field(bits, p + 8, 9, signed=True)),
+                int(_field(bits, p + 17, 8, signed=True)),
+                int(_field(bits, p + 25, 9, signed=True)),
+                bool(_field(bits, p + 34, 1)),
+            )
+        )
+    return ServiceMessage(
+        int(_field(bits, 14, 3)),
+        int(_field(bits, 17, 3)) + 1,
+        int(_field(bits, 20, 3)),
+        int(_field(bits, 26, 2)),
+        int(_field(bits, 28, 4)),
+        int(_field(bits, 32, 4)),
+        tuple(regions),
+    )
+
+
 def _covariance_matrices(bits: np.ndarray) -> CovarianceMatrices:
     slots, exponents, matrices = [], [], []
     for k in range(2):
@@ -437,6 +505,7 @@ SbasContent = (
     | IgpMask
     | IonoDelays
     | CovarianceMatrices
+    | ServiceMessage
     | list[LongTermCorrection]
     | tuple[FastCorrections, list[LongTermCorrection]]
     | None
@@ -502,6 +571,8 @@ def decode_content(bits: np.ndarray) -> SbasContent:
             np.where(delay == 511, np.nan, delay * 0.125),
             (raw % 16).astype(int),
         )
+    if mtype == 27:
+        return _service_message(b)
     if mtype == 28:
         return _covariance_matrices(b)
     return None
@@ -533,6 +604,12 @@ def describe(content: SbasContent) -> str:
         return f"IGP mask band {content.band} IODI {content.iodi}: {len(content.igps)} IGPs"
     if isinstance(content, IonoDelays):
         return f"ionospheric delays band {content.band} block {content.block} IODI {content.iodi}"
+    if isinstance(content, ServiceMessage):
+        return (
+            f"service message {content.number + 1} of {content.count} IODS {content.iods}: "
+            f"{len(content.regions)} regions, priority {content.priority}, δUDREI {content.inside} in, "
+            f"{content.outside} out"
+        )
     if isinstance(content, CovarianceMatrices):
         return f"clock-ephemeris covariance IODP {content.iodp}: mask numbers {' '.join(map(str, content.slots))}"
     if isinstance(content, tuple):
@@ -550,7 +627,8 @@ class SbasCorrections:
     ``fast_iodf`` the IODF of both), its long-term correction (and in ``long_term_time`` its
     message's time), each band's monitored IGPs with their latest delays (m) and GIVEI, and
     the latest type 7 and type 10 with their times (``degradation``, ``parameters``), and
-    per satellite its latest type 28 (``covariance``: time, scale exponent, C).
+    per satellite its latest type 28 (``covariance``: time, scale exponent, C), and the
+    latest type 27 of each service message number with its time (``service``).
     ``ignored`` counts messages whose IODP or IODI did not match the mask they need (or that
     came before it)."""
 
@@ -566,6 +644,7 @@ class SbasCorrections:
     iono: dict[tuple[int, float, float], tuple[float, int, float]] = field(default_factory=dict)
     geo: dict[int, tuple[float, GeoNavigation]] = field(default_factory=dict)
     covariance: dict[str, tuple[float, int, np.ndarray]] = field(default_factory=dict)
+    service: dict[int, tuple[float, ServiceMessage]] = field(default_factory=dict)
     ignored: int = 0
 
     @classmethod
@@ -631,6 +710,8 @@ class SbasCorrections:
                 if j < len(grid):
                     key = (content.band, float(grid[j, 0]), float(grid[j, 1]))
                     self.iono[key] = (float(content.delay_m[k]), int(content.givei[k]), t)
+        elif isinstance(content, ServiceMessage):
+            self.service[content.number] = (t, content)
         elif isinstance(content, CovarianceMatrices):
             if self.mask is None or content.iodp != self.mask.iodp:
                 self.ignored += 1

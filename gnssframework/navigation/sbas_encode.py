@@ -1,7 +1,7 @@
 r"""SBAS L1 messages written from their contents: the inverse of `sbas_content` for the types
 a simulated SBAS stream needs (RTCA DO-229 A.4.4): the PRN mask (1), fast corrections (2-5),
-long-term corrections (25, velocity code 0), the IGP mask (18), ionospheric delays (26) and
-the clock-ephemeris covariance (28).
+long-term corrections (25, velocity code 0), the IGP mask (18), ionospheric delays (26),
+service messages (27) and the clock-ephemeris covariance (28).
 
 Every field sits where `sbas_content`'s table puts it and is quantised to the nearest
 integer of its LSB (`bit_fields.encode_fields`); a value out of its field is refused in one
@@ -30,6 +30,7 @@ __all__ = [
     "iono_message",
     "fast_degradation_message",
     "degradation_parameters_message",
+    "service_message",
     "covariance_message",
 ]
 
@@ -204,3 +205,50 @@ def covariance_message(
             layout[f"e{r + 1}{c + 1}_{k}"] = (first + 45 + 10 * j, 10, 1.0, True)
             values[f"e{r + 1}{c + 1}_{k}"] = m[r, c]
     return message_bits(preamble_index, 28, _data(layout, values, "type28"))
+
+
+def service_message(
+    iods: int,
+    count: int,
+    number: int,
+    priority: int,
+    inside: int,
+    outside: int,
+    regions: Sequence[tuple[int, int, int, int, bool]],
+    preamble_index: int = 0,
+) -> np.ndarray:
+    """Type 27: service message ``number`` (0-based) of ``count`` of set ``iods``, its
+    priority, δUDRE indicators inside and outside, and up to five regions ``(lat1, lon1,
+    lat2, lon2, quadrangle)`` in whole degrees (`sbas_content.ServiceMessage`)."""
+    if not 1 <= count <= 8 or len(regions) > 5:
+        raise ConfigError("type27.regions", f"1-8 messages of up to 5 regions, got {count} and {len(regions)}")
+    layout: Layout = {
+        "iods": (15, 3, 1.0, False),
+        "count": (18, 3, 1.0, False),
+        "number": (21, 3, 1.0, False),
+        "regions": (24, 3, 1.0, False),
+        "priority": (27, 2, 1.0, False),
+        "inside": (29, 4, 1.0, False),
+        "outside": (33, 4, 1.0, False),
+    }
+    values: dict[str, float] = {
+        "iods": iods,
+        "count": count - 1,
+        "number": number,
+        "regions": len(regions),
+        "priority": priority,
+        "inside": inside,
+        "outside": outside,
+    }
+    for k, (lat1, lon1, lat2, lon2, quadrangle) in enumerate(regions):
+        first = 37 + 35 * k
+        for name, offset, n, v in (
+            ("lat1", 0, 8, lat1),
+            ("lon1", 8, 9, lon1),
+            ("lat2", 17, 8, lat2),
+            ("lon2", 25, 9, lon2),
+            ("shape", 34, 1, int(quadrangle)),
+        ):
+            layout[f"{name}_{k}"] = (first + offset, n, 1.0, name != "shape")
+            values[f"{name}_{k}"] = v
+    return message_bits(preamble_index, 27, _data(layout, values, "type27"))

@@ -37,8 +37,11 @@ satellite (younger than its 240 s precision-approach time-out, Table A-25),
 :math:`\delta UDRE = \sqrt{I^T C I} + \epsilon_c` (A.4.5.1.2): :math:`I = [u, 1]`, :math:`u`
 the unit vector from the user to the satellite (ECEF), :math:`C` the message's relative
 covariance and :math:`\epsilon_c = C_{covariance}\,2^{e - 5}` (type 10's C_covariance, 0
-without one; :math:`e` the scale exponent); else δUDRE is 1. Type 27's regions are not read
-and :math:`\epsilon_{er}` (en-route fallback) is 0. :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
+without one; :math:`e` the scale exponent); else, with a whole set of type 27 service
+messages (every message of one IODS, within a day, A.4.4.13), the δUDRE of the
+highest-priority region holding the user (the smallest δUDRE at equal priority; Table
+A-16's values), or the set's outside value (its largest, should they differ) where none
+does; else δUDRE is 1. :math:`\epsilon_{er}` (en-route fallback) is 0. :math:`\sigma^2_{UIRE} = F_{pp}^2\sigma^2_{UIVE}`, and
 :math:`\sigma^2_{air} = \sigma^2_{noise} + \sigma^2_{multipath}` with
 :math:`\sigma_{multipath} = 0.13 + 0.53\,e^{-E/10°}` m (J.2.4) and a constant
 :math:`\sigma_{noise}` (``sigma_noise_m``; 0.36 m, an airborne accuracy designator A
@@ -66,7 +69,7 @@ from ..signal.sbas_l1 import SBAS_L1
 from ..signal.spec import SPEED_OF_LIGHT_M_S as _C
 from .ephemeris import Ephemerides, satellite_state, single_frequency_clock_s
 from .pvt import PositionFix, solve_position_sv
-from .sbas_content import SbasCorrections
+from .sbas_content import DELTA_UDRE, SbasCorrections
 from .sbas_iono import (
     GIVE_VARIANCE_M2,
     UDRE_VARIANCE_M2,
@@ -82,7 +85,9 @@ __all__ = [
     "K_H",
     "protection_levels",
     "COVARIANCE_TIMEOUT_PA_S",
+    "SERVICE_TIMEOUT_S",
     "delta_udre",
+    "service_delta_udre",
     "sbas_satellite_corrections",
     "solve_position_sbas",
 ]
@@ -166,12 +171,46 @@ def _slot_of(corrections: SbasCorrections, sv: str) -> int | None:
 COVARIANCE_TIMEOUT_PA_S = 240.0
 
 
-def delta_udre(corrections: SbasCorrections, sv: np.ndarray, los_unit: np.ndarray, tow_s: float) -> np.ndarray:
+#: Type 27's time-out (s; DO-229 Table A-25: a day).
+SERVICE_TIMEOUT_S = 86_400.0
+
+
+def service_delta_udre(corrections: SbasCorrections, lat_deg: float, lon_deg: float, tow_s: float) -> float | None:
+    """The δUDRE type 27 gives a user at ``lat_deg``, ``lon_deg`` (module text), or None
+    without a whole set of service messages younger than `SERVICE_TIMEOUT_S`."""
+    held = [(t, m) for t, m in corrections.service.values() if abs(tow_s - t) <= SERVICE_TIMEOUT_S]
+    if not held:
+        return None
+    latest = max(held, key=lambda tm: tm[0])[1]
+    group = {m.number: m for _, m in held if m.iods == latest.iods and m.count == latest.count}
+    if set(group) != set(range(latest.count)):
+        return None
+    best: tuple[int, float] | None = None  # (priority, δUDRE) of the region chosen
+    for m in group.values():
+        for inside in m.contains(lat_deg, lon_deg):
+            if inside:
+                value = float(DELTA_UDRE[m.inside])
+                if best is None or m.priority > best[0] or (m.priority == best[0] and value < best[1]):
+                    best = (m.priority, value)
+    if best is not None:
+        return best[1]
+    return float(max(DELTA_UDRE[m.outside] for m in group.values()))
+
+
+def delta_udre(
+    corrections: SbasCorrections,
+    sv: np.ndarray,
+    los_unit: np.ndarray,
+    tow_s: float,
+    user_lat_lon_deg: tuple[float, float] | None = None,
+) -> np.ndarray:
     """δUDRE of each satellite ``sv`` (names) seen along ``los_unit`` (``(S, 3)`` unit vectors
     from the user to the satellites, ECEF) at ``tow_s`` (A.4.5.1.2, module text): from its
-    type 28 within `COVARIANCE_TIMEOUT_PA_S`, else 1."""
+    type 28 within `COVARIANCE_TIMEOUT_PA_S`; else from type 27 at the user's
+    ``user_lat_lon_deg`` (`service_delta_udre`); else 1."""
     u = np.asarray(los_unit, float).reshape(-1, 3)
-    out = np.ones(u.shape[0])
+    regional = None if user_lat_lon_deg is None else service_delta_udre(corrections, *user_lat_lon_deg, tow_s)
+    out = np.full(u.shape[0], 1.0 if regional is None else regional)
     c_cov = corrections.parameters[1].ccovariance if corrections.parameters is not None else 0.0
     for i, name in enumerate(np.asarray(sv).astype(str)):
         got = corrections.covariance.get(name)
@@ -360,10 +399,11 @@ def solve_position_sbas(
     fix, iono, tropo, sigma, reasons_now = first, np.zeros(pr.size), np.zeros(pr.size), sigma0, list(reasons)
     for _ in range(2):  # the pierce points and elevations of the fix, then once more
         lat, lon, h = fix.lat_deg, fix.lon_deg, fix.height_m
-        if corrections.covariance:  # δUDRE along the lines of sight from the fix
+        if corrections.covariance or corrections.service:  # δUDRE along the lines of sight from the fix
             los = sv_pos - fix.position_ecef_m
             los_unit = los / np.linalg.norm(los, axis=1, keepdims=True)
-            dudre = delta_udre(corrections, np.asarray(ephemeris.sv), los_unit, float(np.nanmedian(t - clock)))
+            now = float(np.nanmedian(t - clock))
+            dudre = delta_udre(corrections, np.asarray(ephemeris.sv), los_unit, now, (float(lat), float(lon)))
             var_flt = sbas_satellite_corrections(
                 corrections, ephemeris, t - clock, max_fast_age_s=max_fast_age_s, range_rate=range_rate, dudre=dudre
             )[3]

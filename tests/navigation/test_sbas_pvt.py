@@ -479,3 +479,82 @@ def test_delta_udre_scales_sigma_udre_in_the_fix_weights(epoch):
     sigma_udre2 = UDRE_VARIANCE_M2[2]  # the epoch's UDREI
     np.testing.assert_allclose(wide.sigma_m**2 - plain.sigma_m**2, sigma_udre2 * (k**2 - 1), rtol=1e-6)
     assert wide.vpl_m > plain.vpl_m and wide.hpl_m > plain.hpl_m
+
+
+# --- Type 27's regional δUDRE (A.4.4.13) ------------------------------------------------------
+
+
+def test_a_type_27_reads_back_and_its_regions_hold_what_their_corners_say():
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import ServiceMessage, decode_content, describe
+
+    regions = [(30, 130, 40, 145, True), (-10, -20, 20, 10, False)]
+    got = decode_content(enc.service_message(5, 2, 1, 3, 4, 11, regions))
+    assert isinstance(got, ServiceMessage)
+    assert (got.iods, got.count, got.number, got.priority, got.inside, got.outside) == (5, 2, 1, 3, 4, 11)
+    assert got.regions == tuple(regions)
+    assert describe(got) == "service message 2 of 2 IODS 5: 2 regions, priority 3, δUDREI 4 in, 11 out"
+    # The quadrangle: its box, borders included; the triangle (-10,-20), (20,-20), (20,10):
+    # the half of its box on the (20,-20) side of the diagonal.
+    assert got.contains(35.0, 140.0) == [True, False] and got.contains(40.0, 130.0) == [True, False]
+    assert got.contains(10.0, -15.0) == [False, True]  # near corner (20, -20)
+    assert got.contains(-5.0, 5.0) == [False, False]  # in the box, beyond the diagonal
+    assert got.contains(5.0, -5.0) == [False, True]  # on the diagonal
+    assert got.contains(41.0, 140.0) == [False, False]
+    with pytest.raises(ConfigError, match=r"type27\.lat1_0"):
+        enc.service_message(0, 1, 0, 0, 0, 0, [(128, 0, 0, 0, True)])
+
+
+def _service_corrections(messages, t=100.0):
+    from gnssframework.navigation import sbas_encode as enc
+    from gnssframework.navigation.sbas_content import decode_content
+
+    corr = SbasCorrections()
+    for m in messages:
+        corr.add(t, 137, decode_content(enc.service_message(*m)))
+    return corr
+
+
+def test_the_regional_delta_udre_takes_priority_then_the_smaller_value():
+    from gnssframework.navigation.sbas_content import DELTA_UDRE
+    from gnssframework.navigation.sbas_pvt import SERVICE_TIMEOUT_S, delta_udre, service_delta_udre
+
+    # Set 3 of three messages: a wide low-priority region (δUDREI 4: 2.0) and, inside it, a
+    # small high-priority one (δUDREI 2: 1.25) beside a low-priority one of δUDREI 1 (1.1).
+    wide = (3, 3, 0, 0, 4, 9, [(20, 120, 50, 160, True)])
+    small = (3, 3, 1, 2, 2, 9, [(34, 138, 36, 140, True)])
+    near = (3, 3, 2, 0, 1, 9, [(36, 140, 37, 141, True)])
+    corr = _service_corrections([wide, small, near])
+    assert service_delta_udre(corr, 35.0, 139.0, 100.0) == DELTA_UDRE[2] == 1.25  # priority 2 wins
+    assert service_delta_udre(corr, 36.5, 140.5, 100.0) == DELTA_UDRE[1] == 1.1  # both priority 0: the smaller
+    assert service_delta_udre(corr, 25.0, 125.0, 100.0) == 2.0
+    assert service_delta_udre(corr, 0.0, 0.0, 100.0) == DELTA_UDRE[9] == 8.0  # outside every region
+    # Not a whole set: two of three, or three of different IODS; nor after a day.
+    assert service_delta_udre(_service_corrections([wide, small]), 35.0, 139.0, 100.0) is None
+    other = (4, 3, 1, 2, 2, 9, [(34, 138, 36, 140, True)])
+    assert service_delta_udre(_service_corrections([wide, other, near]), 35.0, 139.0, 100.0) is None
+    assert service_delta_udre(corr, 35.0, 139.0, 100.0 + SERVICE_TIMEOUT_S + 1.0) is None
+    # A satellite's type 28 takes precedence over the region; the others get the region's.
+    eph, with28 = _covariance_stream(np.diag([0.0, 0.0, 0.0, 96.0]), 0)  # R = diag(0, 0, 0, 3)
+    for t_m, m in corr.service.values():
+        with28.service[m.number] = (t_m, m)
+    u = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    got = delta_udre(with28, np.array(["G05", "G07"]), u, 100.0, (35.0, 139.0))
+    assert got.tolist() == [3.0, 1.25]
+    assert delta_udre(with28, np.array(["G07"]), u[:1], 100.0).tolist() == [1.0]  # no user position given
+
+
+def test_a_region_holding_the_user_scales_sigma_udre_in_the_fix_weights(epoch):
+    """A one-message set whose quadrangle holds the receiver (δUDREI 2: 1.25; outside 8.0):
+    each weight's σ² grows by σ²_UDRE (1.25² - 1); moved away from the receiver, by the
+    outside value's."""
+    corr = epoch["corr"]
+    lat, lon, _ = pymap3d.ecef2geodetic(*RECEIVER)
+    box = (int(lat) - 2, int(lon) - 2, int(lat) + 2, int(lon) + 2, True)
+    plain = solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], corr, day_of_year=DAY_OF_YEAR)
+    for region, k in ((box, 1.25), ((-60, -60, -50, -50, True), 8.0)):
+        regional = _service_corrections([(0, 1, 0, 0, 2, 9, [region])], t=TOW - 10.0)
+        for f in ("mask", "fast", "fast_previous", "long_term", "iono"):
+            setattr(regional, f, getattr(corr, f))
+        fix = solve_position_sbas(epoch["pr"], epoch["tx"], epoch["eph"], regional, day_of_year=DAY_OF_YEAR)
+        np.testing.assert_allclose(fix.sigma_m**2 - plain.sigma_m**2, UDRE_VARIANCE_M2[2] * (k**2 - 1), rtol=1e-6)
