@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["Layout", "field_integer", "encode_fields", "decode_fields"]
+__all__ = ["Layout", "field_integer", "encode_fields", "decode_fields", "read_fields", "read_field"]
 
 #: ``name -> (first bit, 1-based; length; scale; signed)``.
 Layout = dict[str, tuple[int, int, float, bool]]
@@ -53,3 +53,17 @@ def decode_fields(bits: np.ndarray, layout: Layout) -> dict[str, float]:
             q -= 1 << n
         out[name] = q * scale if scale != 1 else q
     return out
+
+
+def read_fields(
+    bits: np.ndarray, first0: int, n: int, count: int, scale: float = 1.0, signed: bool = False
+) -> np.ndarray:
+    """``count`` fields of ``n`` bits one after the other from bit ``first0`` (0-based, where
+    `decode_fields`' layouts count from 1), times ``scale``, as floats."""
+    layout = {str(k): (first0 + 1 + k * n, n, scale, signed) for k in range(count)}
+    return np.array(list(decode_fields(bits, layout).values()), dtype=float)
+
+
+def read_field(bits: np.ndarray, first0: int, n: int, scale: float = 1.0, signed: bool = False) -> float:
+    """One field of ``n`` bits from bit ``first0`` (0-based), times ``scale``."""
+    return float(read_fields(bits, first0, n, 1, scale, signed)[0])

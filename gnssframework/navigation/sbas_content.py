@@ -58,7 +58,8 @@ north and south. Each is generated here by that rule and numbered as the mask nu
 `SbasCorrections.from_messages` gathers a stream's messages into what a user would apply at
 its end: each masked satellite's latest fast correction and UDREI, its long-term correction
 and each monitored IGP's delay, where the message's IODP or IODI matches the mask's.
-Types 12 and the rest are not interpreted here (`decode_content` returns None).
+Types 27 and 28 are read by `sbas_udre`; type 12 and the rest are not interpreted here
+(`decode_content` returns None).
 The field positions follow DO-229 as RTKLIB's ``sbas.c`` reads them (learned from, not
 copied); the checks are in `tests/navigation/test_sbas_content.py`.
 """
@@ -70,7 +71,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .bit_fields import decode_fields
+from .bit_fields import read_field as _field
+from .bit_fields import read_fields as _fields
 from .sbas_message import MESSAGE_BITS, parse_message
+from .sbas_udre import DELTA_UDRE, CovarianceMatrices, ServiceMessage, covariance_content, service_content
 
 __all__ = [
     "PrnMask",
@@ -96,18 +100,6 @@ __all__ = [
 ]
 
 _TWO_M31 = 2.0**-31
-
-
-def _fields(bits: np.ndarray, first0: int, n: int, count: int, scale: float = 1.0, signed: bool = False) -> np.ndarray:
-    """``count`` fields of ``n`` bits one after the other from ``first0`` (0-based from the
-    preamble; `bit_fields` counts from 1), as floats."""
-    layout = {str(k): (first0 + 1 + k * n, n, scale, signed) for k in range(count)}
-    return np.array(list(decode_fields(bits, layout).values()), dtype=float)
-
-
-def _field(bits: np.ndarray, first0: int, n: int, scale: float = 1.0, signed: bool = False) -> float:
-    """One field (`_fields`)."""
-    return float(_fields(bits, first0, n, 1, scale, signed)[0])
 
 
 def mask_satellite(slot: int) -> str:
@@ -400,99 +392,6 @@ def _geo_almanac(bits: np.ndarray) -> GeoAlmanac:
     return GeoAlmanac(_field(bits, 215, 11, 64.0), tuple(entries))
 
 
-@dataclass(frozen=True)
-class CovarianceMatrices:
-    """Type 28: per satellite named (``slots``, 1-based mask numbers) its scale exponent and
-    the relative clock-ephemeris covariance ``C = RᵀR`` (4 × 4, x y z clock; R = 2^(exponent
-    - 5) E) of the corrections of mask ``iodp``."""
-
-    iodp: int
-    slots: tuple[int, ...]
-    scale_exponents: tuple[int, ...]
-    covariances: np.ndarray = field(repr=False)
-
-
-#: δUDRE of each indicator 0-15 (DO-229 Table A-16).
-DELTA_UDRE = np.array([1.0, 1.1, 1.25, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 20.0, 30.0, 40.0, 50.0, 100.0])
-
-
-@dataclass(frozen=True)
-class ServiceMessage:
-    """Type 27: one of the ``count`` service messages of set ``iods`` (this one ``number``,
-    0-based), its ``priority``, its δUDRE indicators inside and outside its regions, and the
-    regions: ``(lat1, lon1, lat2, lon2, quadrangle)`` in degrees (a quadrangle has corners
-    (1, 1), (2, 1), (2, 2), (1, 2) of the two latitudes and longitudes; a triangle (1, 1),
-    (2, 1), (2, 2))."""
-
-    iods: int
-    count: int
-    number: int
-    priority: int
-    inside: int
-    outside: int
-    regions: tuple[tuple[int, int, int, int, bool], ...]
-
-    def contains(self, lat_deg: float, lon_deg: float) -> list[bool]:
-        """Whether each region holds the point (its border included)."""
-        out = []
-        for lat1, lon1, lat2, lon2, quadrangle in self.regions:
-            in_box = min(lat1, lat2) <= lat_deg <= max(lat1, lat2) and min(lon1, lon2) <= lon_deg <= max(lon1, lon2)
-            if quadrangle or not in_box or lat1 == lat2 or lon1 == lon2:
-                out.append(in_box and (quadrangle or lat1 != lat2 and lon1 != lon2))
-                continue
-            # The triangle (1,1), (2,1), (2,2): the box's half on corner (2,1)'s side of the
-            # diagonal from (1,1) to (2,2).
-            a = (lat_deg - lat1) / (lat2 - lat1)
-            b = (lon_deg - lon1) / (lon2 - lon1)
-            out.append(b <= a)
-        return out
-
-
-def _service_message(bits: np.ndarray) -> ServiceMessage:
-    n = int(_field(bits, 23, 3))
-    regions = []
-    for k in range(min(n, 5)):
-        p = 36 + 35 * k
-        regions.append(
-            (
-                int(_field(bits, p, 8, signed=True)),
-                int(_field(bits, p + 8, 9, signed=True)),
-                int(_field(bits, p + 17, 8, signed=True)),
-                int(_field(bits, p + 25, 9, signed=True)),
-                bool(_field(bits, p + 34, 1)),
-            )
-        )
-    return ServiceMessage(
-        int(_field(bits, 14, 3)),
-        int(_field(bits, 17, 3)) + 1,
-        int(_field(bits, 20, 3)),
-        int(_field(bits, 26, 2)),
-        int(_field(bits, 28, 4)),
-        int(_field(bits, 32, 4)),
-        tuple(regions),
-    )
-
-
-def _covariance_matrices(bits: np.ndarray) -> CovarianceMatrices:
-    slots, exponents, matrices = [], [], []
-    for k in range(2):
-        p = 16 + 105 * k
-        slot = int(_field(bits, p, 6))
-        if slot == 0:
-            continue
-        exponent = int(_field(bits, p + 6, 3))
-        e = np.zeros((4, 4))
-        e[np.diag_indices(4)] = _fields(bits, p + 9, 9, 4)
-        e[np.triu_indices(4, 1)] = _fields(bits, p + 45, 10, 6, signed=True)  # E12 E13 E14 E23 E24 E34
-        r = 2.0 ** (exponent - 5) * e
-        slots.append(slot)
-        exponents.append(exponent)
-        matrices.append(r.T @ r)
-    return CovarianceMatrices(
-        int(_field(bits, 14, 2)), tuple(slots), tuple(exponents), np.array(matrices).reshape(-1, 4, 4)
-    )
-
-
 #: What `decode_content` returns (see there).
 SbasContent = (
     PrnMask
@@ -572,9 +471,9 @@ def decode_content(bits: np.ndarray) -> SbasContent:
             (raw % 16).astype(int),
         )
     if mtype == 27:
-        return _service_message(b)
+        return service_content(b)
     if mtype == 28:
-        return _covariance_matrices(b)
+        return covariance_content(b)
     return None
 
 

@@ -69,7 +69,8 @@ from ..signal.sbas_l1 import SBAS_L1
 from ..signal.spec import SPEED_OF_LIGHT_M_S as _C
 from .ephemeris import Ephemerides, satellite_state, single_frequency_clock_s
 from .pvt import PositionFix, solve_position_sv
-from .sbas_content import DELTA_UDRE, SbasCorrections
+from .sbas_content import SbasCorrections
+from .sbas_udre import DELTA_UDRE
 from .sbas_iono import (
     GIVE_VARIANCE_M2,
     UDRE_VARIANCE_M2,
