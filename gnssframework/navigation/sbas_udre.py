@@ -53,8 +53,11 @@ class ServiceMessage:
         out = []
         for lat1, lon1, lat2, lon2, quadrangle in self.regions:
             in_box = min(lat1, lat2) <= lat_deg <= max(lat1, lat2) and min(lon1, lon2) <= lon_deg <= max(lon1, lon2)
-            if quadrangle or not in_box or lat1 == lat2 or lon1 == lon2:
-                out.append(in_box and (quadrangle or lat1 != lat2 and lon1 != lon2))
+            if not in_box or quadrangle:
+                out.append(in_box)
+                continue
+            if lat1 == lat2 or lon1 == lon2:  # a triangle of no area
+                out.append(False)
                 continue
             # The triangle (1,1), (2,1), (2,2): the box's half on corner (2,1)'s side of the
             # diagonal from (1,1) to (2,2).

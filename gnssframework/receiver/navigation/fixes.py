@@ -221,6 +221,7 @@ def solve_epochs(
             time_offsets_s=time_offsets_s,
             dual=dual,
         )
+        corrected = None
         if replay is not None:
             tow_e = float(obs.rx_time_s[e])
             if sbas_week is None:  # the observables' week, else (not decoded) the messages'
@@ -236,17 +237,15 @@ def solve_epochs(
                 elevation_mask_deg=elevation_mask_deg,
                 initial_ecef_m=fix.position_ecef_m if fix is not None else None,
             )
-            if corrected is not None:
-                motion = (
-                    {}
-                    if fix is None
-                    else {"velocity_enu_mps": fix.velocity_enu_mps, "clock_drift_mps": fix.clock_drift_mps}
-                )
-                fix = replace(corrected.fix, **motion)
-                sbas_rows.append((corrected.hpl_m, corrected.vpl_m, int(corrected.fix.used.sum())))
-            elif fix is not None:
-                sbas_rows.append((np.nan, np.nan, 0))
-        elif sbas is not None and fix is not None:  # no message of the GEO (none decoded): broadcast fixes
+        if corrected is not None:
+            motion = (
+                {}
+                if fix is None
+                else {"velocity_enu_mps": fix.velocity_enu_mps, "clock_drift_mps": fix.clock_drift_mps}
+            )
+            fix = replace(corrected.fix, **motion)
+            sbas_rows.append((corrected.hpl_m, corrected.vpl_m, int(corrected.fix.used.sum())))
+        elif sbas is not None and fix is not None:  # not covered, or no message of the GEO: the broadcast fix
             sbas_rows.append((np.nan, np.nan, 0))
         if fix is None:
             continue
